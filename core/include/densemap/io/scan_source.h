@@ -1,0 +1,30 @@
+// "Give me scan i": the one interface every reader and the simulator implement.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "densemap/io/scan.h"
+
+namespace densemap::io {
+
+class ScanSource {
+ public:
+  virtual ~ScanSource() = default;
+  virtual std::size_t size() const = 0;
+  /// Throws SourceError (naming the file) on missing, corrupt or truncated data.
+  virtual Scan read(std::size_t i) const = 0;
+  /// A short human-readable description ("kitti00 sequence directory, 60 scans").
+  virtual std::string describe() const = 0;
+};
+
+/// Opens a source from a specification:
+///  - "sim" or "sim:key=value,..." — the built-in LiDAR simulator (see LidarSimulatorOptions);
+///  - a directory with clouds/ and poses/ — sequence directory;
+///  - a directory with velodyne/ and poses.txt — KITTI odometry layout;
+///  - a directory of <name>_<k>.pcd files, or one .pcd — world-frame PCD with the VIEWPOINT as origin;
+///  - a .graph file — OctoMap scan graph.
+std::unique_ptr<ScanSource> openSource(const std::string& spec);
+
+}  // namespace densemap::io

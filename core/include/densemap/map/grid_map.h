@@ -1,0 +1,49 @@
+// A uniform 3D grid stored as hashed 8^3 blocks of dense voxels: no allocation per voxel, and a whole
+// block is updated at once from the scan's evidence.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <memory>
+#include <unordered_map>
+
+#include "densemap/map/occupancy_map.h"
+
+namespace densemap::map {
+
+class GridMap : public OccupancyMap {
+ public:
+  struct Block {
+    /// Log-odds per voxel; NaN marks a voxel never observed.
+    std::array<float, kBlockVoxels> value;
+    Block() { value.fill(std::numeric_limits<float>::quiet_NaN()); }
+  };
+
+  GridMap(double resolution, const OccupancyParams& params = {}) : OccupancyMap(resolution, params) {}
+
+  std::string backendName() const override { return "grid"; }
+  void apply(const ScanEvidence& evidence) override;
+  std::optional<float> logOdds(const VoxelKey& key) const override;
+  bool isFullyFree(const VoxelKey& key) const override;
+  std::size_t knownCells() const override;
+  std::size_t memoryBytes() const override;
+  void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const override;
+  void clear() override { blocks_.clear(); }
+
+  /// Bitwise comparison of two grids (same known cells, same float bits).
+  bool identical(const GridMap& other, std::string* why = nullptr) const;
+
+  const Block* findBlock(const VoxelKey& key) const;
+  std::size_t blockCount() const { return blocks_.size(); }
+
+ private:
+  static std::uint64_t blockId(const VoxelKey& key) {
+    return VoxelKey{{static_cast<geometry::KeyCoord>(key[0] >> kBlockShift),
+                     static_cast<geometry::KeyCoord>(key[1] >> kBlockShift),
+                     static_cast<geometry::KeyCoord>(key[2] >> kBlockShift)}}
+        .packed();
+  }
+  std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
+};
+
+}  // namespace densemap::map

@@ -1,0 +1,54 @@
+// The interface every occupancy backend implements, so each update method runs on any backend.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "densemap/geometry/voxel_key.h"
+#include "densemap/map/occupancy_params.h"
+#include "densemap/map/scan_evidence.h"
+#include "densemap/map/update_semantics.h"
+
+namespace densemap::map {
+
+class OccupancyMap {
+ public:
+  OccupancyMap(double resolution, const OccupancyParams& params)
+      : converter_(resolution), params_(params), log_odds_(params) {}
+  virtual ~OccupancyMap() = default;
+
+  virtual std::string backendName() const = 0;
+
+  /// Applies one scan's evidence (Eq. 2.2 with clamping) under the given semantics' counts.
+  virtual void apply(const ScanEvidence& evidence) = 0;
+
+  /// Log-odds of the cell, or nullopt when it was never observed.
+  virtual std::optional<float> logOdds(const VoxelKey& key) const = 0;
+
+  /// True when the cell is known and clamped at the lower bound: free updates cannot change it.
+  virtual bool isFullyFree(const VoxelKey& key) const = 0;
+
+  /// Number of known leaf cells at the finest resolution.
+  virtual std::size_t knownCells() const = 0;
+  virtual std::size_t memoryBytes() const = 0;
+
+  /// Calls f(key, log_odds) for every known cell at the finest resolution (pruned octree leaves are
+  /// expanded), in no particular order.
+  virtual void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const = 0;
+
+  virtual void clear() = 0;
+
+  const geometry::KeyConverter& converter() const { return converter_; }
+  double resolution() const { return converter_.resolution(); }
+  const OccupancyParams& params() const { return params_; }
+  const LogOdds& logOddsParams() const { return log_odds_; }
+
+ protected:
+  geometry::KeyConverter converter_;
+  OccupancyParams params_;
+  LogOdds log_odds_;
+};
+
+}  // namespace densemap::map

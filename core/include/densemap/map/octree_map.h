@@ -1,0 +1,41 @@
+// An occupancy map backed by octomap::OcTree, so maps save as .bt/.ot and open in OctoMap's tools.
+// A scan's evidence is applied in one depth-first pass over its cells in Morton order, which yields the
+// same tree, node for node and bit for bit, as OctoMap's per-key updateNode calls (same early aborts,
+// expansions and pruning) while visiting every inner node only once.
+#pragma once
+
+#include <memory>
+
+#include <octomap/OcTree.h>
+
+#include "densemap/map/occupancy_map.h"
+
+namespace densemap::map {
+
+class OctreeMap : public OccupancyMap {
+ public:
+  OctreeMap(double resolution, const OccupancyParams& params = {});
+
+  std::string backendName() const override { return "octree"; }
+  void apply(const ScanEvidence& evidence) override;
+  std::optional<float> logOdds(const VoxelKey& key) const override;
+  bool isFullyFree(const VoxelKey& key) const override;
+  std::size_t knownCells() const override;
+  std::size_t memoryBytes() const override;
+  void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const override;
+  void clear() override { tree_->clear(); }
+
+  octomap::OcTree& tree() { return *tree_; }
+  const octomap::OcTree& tree() const { return *tree_; }
+
+  /// Builds an OcTree with the same resolution and sensor model (for OctoMap reference runs).
+  static std::unique_ptr<octomap::OcTree> makeTree(double resolution, const OccupancyParams& params);
+
+ private:
+  std::unique_ptr<octomap::OcTree> tree_;
+};
+
+/// Node-for-node comparison of two OcTrees: same shape, same log-odds bits in every node.
+bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::string* why = nullptr);
+
+}  // namespace densemap::map

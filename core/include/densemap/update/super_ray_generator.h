@@ -1,0 +1,51 @@
+// Super rays (Sec. 2.3.2-2.3.4, Alg. 2): the points of one cell whose rays fall into the same segment
+// of the three mapping lines (XY, YZ, ZX sub-spaces) traverse identical cells, so one traversal weighted by
+// their count replaces them.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "densemap/geometry/voxel_key.h"
+
+namespace densemap::update {
+
+using geometry::Vec3f;
+using geometry::VoxelKey;
+
+struct SuperRayOptions {
+  /// Minimum number of points in a cell for building super rays (Sec. 2.4, "k"); sparser cells keep their
+  /// rays single, since grouping them would cost more than it saves. The dissertation uses 20.
+  std::uint32_t threshold = 20;
+};
+
+/// A ray to traverse from the sensor: its end (a member's endpoint) and how many rays it stands for.
+struct SuperRay {
+  Vec3f end;
+  std::uint32_t weight;
+};
+
+struct SuperRayStats {
+  std::uint64_t points = 0;          ///< rays given to the generator
+  std::uint64_t rays = 0;            ///< rays to traverse after grouping (super rays + single rays)
+  std::uint64_t grouped_points = 0;  ///< points represented by super rays of weight > 1
+  std::uint64_t super_rays = 0;      ///< rays of weight > 1
+  std::uint64_t unsafe = 0;          ///< points kept single because they pass within tolerance of a grid edge
+};
+
+class SuperRayGenerator {
+ public:
+  explicit SuperRayGenerator(SuperRayOptions options = {}) : options_(options) {}
+
+  /// Groups rays from `origin` to `ends` (world frame; each end inside the key range). Rays whose ends
+  /// share a cell and a mapping-plane region become one super ray. The output order is deterministic.
+  std::vector<SuperRay> generate(const geometry::KeyConverter& conv, const Vec3f& origin,
+                                 const std::vector<Vec3f>& ends, SuperRayStats* stats = nullptr) const;
+
+  const SuperRayOptions& options() const { return options_; }
+
+ private:
+  SuperRayOptions options_;
+};
+
+}  // namespace densemap::update

@@ -1,0 +1,88 @@
+// Integrates scans into an occupancy map with one of four interchangeable methods, all producing the
+// same map as the baseline for a given semantics (Ch. 2).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "densemap/geometry/voxel_key.h"
+#include "densemap/map/occupancy_map.h"
+#include "densemap/map/scan_evidence.h"
+#include "densemap/map/update_semantics.h"
+#include "densemap/update/super_ray_generator.h"
+
+namespace densemap::update {
+
+enum class UpdateMethod {
+  kBaseline,        ///< one forward 3D DDA per ray, OctoMap's cell sequence
+  kSuperRays,       ///< Sec. 2.3.1-2.3.4
+  kCullingRegion,   ///< Sec. 2.3.5: rays walked from the endpoint, stopping on entering the region
+  kSuperRaysCulling ///< both (the default)
+};
+
+std::string_view toString(UpdateMethod m);
+std::optional<UpdateMethod> parseMethod(std::string_view s);
+inline constexpr UpdateMethod kAllMethods[] = {UpdateMethod::kBaseline, UpdateMethod::kSuperRays,
+                                               UpdateMethod::kCullingRegion, UpdateMethod::kSuperRaysCulling};
+
+struct UpdateOptions {
+  UpdateMethod method = UpdateMethod::kSuperRaysCulling;
+  map::UpdateSemantics semantics = map::UpdateSemantics::kBatch;
+  /// Rays longer than this are cut there and give no occupied endpoint (OctoMap's maxrange); < 0: unlimited.
+  double max_range = -1.0;
+  SuperRayOptions super_rays{};
+  /// Count traversals of cells that were already fully free (Table 2.3). Costs a map lookup per cell.
+  bool count_unnecessary = false;
+};
+
+struct UpdateStats {
+  std::uint64_t points = 0;          ///< points given
+  std::uint64_t rejected = 0;        ///< non-finite points or points outside the key range
+  std::uint64_t rays = 0;            ///< traversals started (super rays + single rays)
+  std::uint64_t super_rays = 0;      ///< rays of weight > 1
+  std::uint64_t grouped_points = 0;  ///< points represented by those super rays
+  std::uint64_t traversed = 0;       ///< cells visited by all traversals
+  std::uint64_t unnecessary = 0;     ///< visits of already fully free cells (when counted)
+  std::uint64_t region_cells = 0;    ///< culling region size
+  std::uint64_t touched_cells = 0;   ///< distinct cells updated
+  std::uint64_t fallbacks = 0;       ///< backward walks finished forward because of a rounding tie
+  double prepare_ms = 0.0;           ///< validation, range cuts, bounding box (part of update_ms)
+  double trace_ms = 0.0;             ///< ray traversals (part of update_ms)
+  double apply_ms = 0.0;             ///< endpoints + applying the evidence to the map (part of update_ms)
+  double generation_ms = 0.0;        ///< super rays + culling region
+  double update_ms = 0.0;            ///< traversals + applying the evidence to the map
+  double totalMs() const { return generation_ms + update_ms; }
+};
+
+class UpdateEngine {
+ public:
+  explicit UpdateEngine(UpdateOptions options = {});
+
+  /// Inserts one scan: points and sensor origin in the map's (world) frame. Non-finite points are skipped
+  /// and counted; a non-finite or out-of-range origin rejects the whole scan (returns nullopt).
+  std::optional<UpdateStats> insert(map::OccupancyMap& map, const std::vector<geometry::Vec3f>& points,
+                                    const geometry::Vec3f& origin);
+
+  const UpdateOptions& options() const { return options_; }
+  void setOptions(const UpdateOptions& o) { options_ = o; }
+
+ private:
+  struct TraceCounters {
+    std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
+  };
+  /// Walks every ray and records its free cells in the evidence (the hot loop, specialised per mode).
+  template <bool kCountUnnecessary>
+  TraceCounters traceRays(const map::OccupancyMap& map, const geometry::Vec3f& origin,
+                          const std::vector<SuperRay>& rays, bool counting, bool backward, bool region);
+  template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
+  TraceCounters traceRaysImpl(const map::OccupancyMap& map, const geometry::Vec3f& origin,
+                              const std::vector<SuperRay>& rays);
+
+  UpdateOptions options_;
+  map::ScanEvidence evidence_;
+};
+
+}  // namespace densemap::update

@@ -1,0 +1,85 @@
+// Our own parser of OctoMap's .graph format: octomap::ScanGraph::readBinary trusts every count in the
+// file, so a corrupt file can make it allocate without bound or read past the end. This one checks each
+// count against the bytes that remain and names the file in its errors.
+#include "densemap/io/scan_graph_source.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+namespace densemap::io {
+
+namespace {
+
+class Reader {
+ public:
+  Reader(std::string path, std::vector<char> bytes) : path_(std::move(path)), bytes_(std::move(bytes)) {}
+  template <class T>
+  T get(const char* what) {
+    if (remaining() < sizeof(T)) fail(std::string("truncated while reading ") + what);
+    T v;
+    std::memcpy(&v, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  std::size_t remaining() const { return bytes_.size() - pos_; }
+  [[noreturn]] void fail(const std::string& msg) const {
+    throw SourceError(path_ + ": corrupt scan graph at byte " + std::to_string(pos_) + ": " + msg);
+  }
+  Eigen::Vector3d vec3(const char* what) {
+    if (get<std::int32_t>(what) != 3) fail(std::string("bad vector header in ") + what);
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) v[i] = get<double>(what);
+    return v;
+  }
+
+ private:
+  std::string path_;
+  std::vector<char> bytes_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+ScanGraphSource::ScanGraphSource(const std::string& path) : path_(path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SourceError(path + ": cannot open scan graph");
+  Reader r(path, std::vector<char>(std::istreambuf_iterator<char>(in), {}));
+  const auto nodes = r.get<std::uint32_t>("node count");
+  constexpr std::size_t kMinNodeBytes = 4 + 4 + 24 + 4 + 32 + 4;
+  if (nodes > r.remaining() / kMinNodeBytes) r.fail("node count " + std::to_string(nodes) + " exceeds the file size");
+  for (std::uint32_t n = 0; n < nodes; ++n) {
+    const auto count = r.get<std::uint32_t>("point count");
+    if (count > r.remaining() / 28) r.fail("point count " + std::to_string(count) + " exceeds the file size");
+    Scan s;
+    s.index = n;
+    s.frame = PointFrame::kSensor;
+    s.points.reserve(count);
+    for (std::uint32_t i = 0; i < count; ++i) s.points.push_back(r.vec3("point").cast<float>());
+    const Eigen::Vector3d t = r.vec3("pose translation");
+    if (r.get<std::int32_t>("pose rotation") != 4) r.fail("bad quaternion header");
+    double q[4];
+    for (double& v : q) v = r.get<double>("pose rotation");
+    Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+    if (!t.allFinite() || !std::isfinite(quat.norm()) || std::abs(quat.norm() - 1.0) > 1e-3)
+      r.fail("node " + std::to_string(n) + " has an invalid pose");
+    s.pose = Eigen::Isometry3d::Identity();
+    s.pose.linear() = quat.normalized().toRotationMatrix();
+    s.pose.translation() = t;
+    r.get<std::uint32_t>("node id");
+    scans_.push_back(std::move(s));
+  }
+  // Edges (constraints between nodes) are not needed for mapping; the edge count is still checked.
+  if (r.remaining() >= 4) {
+    const auto edges = r.get<std::uint32_t>("edge count");
+    if (edges > r.remaining() / 8) r.fail("edge count exceeds the file size");
+  }
+  if (scans_.empty()) throw SourceError(path + ": scan graph holds no scans");
+}
+
+std::string ScanGraphSource::describe() const {
+  return "OctoMap scan graph " + path_ + " (" + std::to_string(scans_.size()) + " scans)";
+}
+
+}  // namespace densemap::io

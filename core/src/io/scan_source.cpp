@@ -1,0 +1,36 @@
+#include "densemap/io/scan_source.h"
+
+#include <filesystem>
+
+#include "densemap/io/kitti_odometry_source.h"
+#include "densemap/io/lidar_simulator.h"
+#include "densemap/io/scan_graph_source.h"
+#include "densemap/io/sequence_directory_source.h"
+#include "densemap/io/viewpoint_pcd_source.h"
+
+namespace densemap::io {
+
+namespace fs = std::filesystem;
+
+std::unique_ptr<ScanSource> openSource(const std::string& spec) {
+  if (spec == "sim" || spec.rfind("sim:", 0) == 0) {
+    try {
+      return std::make_unique<LidarSimulator>(LidarSimulatorOptions::parse(spec.size() > 4 ? spec.substr(4) : ""));
+    } catch (const std::invalid_argument& e) {
+      throw SourceError(e.what());
+    }
+  }
+  if (!fs::exists(spec))
+    throw SourceError(spec + ": no such file or directory (give a dataset path, or 'sim' for the simulator)");
+  if (fs::is_directory(spec)) {
+    if (fs::is_directory(spec + "/clouds")) return std::make_unique<SequenceDirectorySource>(spec);
+    if (fs::is_directory(spec + "/velodyne")) return std::make_unique<KittiOdometrySource>(spec);
+    return std::make_unique<ViewpointPcdSource>(spec);
+  }
+  const std::string ext = fs::path(spec).extension().string();
+  if (ext == ".graph") return std::make_unique<ScanGraphSource>(spec);
+  if (ext == ".pcd") return std::make_unique<ViewpointPcdSource>(spec);
+  throw SourceError(spec + ": unknown source type (expected a directory, a .pcd, a .graph, or 'sim')");
+}
+
+}  // namespace densemap::io

@@ -1,0 +1,127 @@
+#include "densemap/map/grid_map.h"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+namespace densemap::map {
+
+namespace {
+bool hasCounts(const EvidenceBlock& b) {
+  std::uint32_t any = 0;
+  for (int i = 0; i < kBlockVoxels; ++i) any |= b.n_free[static_cast<std::size_t>(i)] | b.n_hit[static_cast<std::size_t>(i)];
+  return any != 0;
+}
+
+float updatedValue(float current, std::uint32_t nf, std::uint32_t nh, const LogOdds& lo) {
+  const bool known = !std::isnan(current);
+  return applyCellUpdate(known ? current : 0.0f, nf, nh, lo);
+}
+}  // namespace
+
+void GridMap::apply(const ScanEvidence& evidence) {
+  // Creating blocks touches the hash map, so it is serial; the per-voxel work is parallel.
+  std::vector<std::pair<const EvidenceBlock*, Block*>> work;
+  work.reserve(evidence.blockCount());
+  evidence.forEachBlock([&](const EvidenceBlock& eb) {
+    if (!hasCounts(eb)) return;  // e.g. a block holding only culling-region cells
+    auto& slot = blocks_[blockId(eb.base)];
+    if (!slot) slot = std::make_unique<Block>();
+    work.emplace_back(&eb, slot.get());
+  });
+  const LogOdds& lo = log_odds_;
+#pragma omp parallel for schedule(static)
+  for (std::size_t w = 0; w < work.size(); ++w) {
+    const EvidenceBlock& eb = *work[w].first;
+    Block& mb = *work[w].second;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(kBlockVoxels); ++i) {
+      const std::uint32_t nf = eb.n_free[i], nh = eb.n_hit[i];
+      if ((nf | nh) == 0) continue;
+      mb.value[i] = updatedValue(mb.value[i], nf, nh, lo);
+    }
+  }
+  // Cells recorded outside the scan's box (normally none).
+  if (evidence.overflowCount() > 0) {
+    std::vector<std::pair<VoxelKey, std::pair<std::uint32_t, std::uint32_t>>> extra;
+    evidence.forEachCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
+      if (!evidence.insideBox(k)) extra.push_back({k, {nf, nh}});
+    });
+    for (const auto& [k, c] : extra) {
+      auto& slot = blocks_[blockId(k)];
+      if (!slot) slot = std::make_unique<Block>();
+      float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
+      v = updatedValue(v, c.first, c.second, lo);
+    }
+  }
+}
+
+const GridMap::Block* GridMap::findBlock(const VoxelKey& key) const {
+  auto it = blocks_.find(blockId(key));
+  return it == blocks_.end() ? nullptr : it->second.get();
+}
+
+std::optional<float> GridMap::logOdds(const VoxelKey& key) const {
+  const Block* b = findBlock(key);
+  if (b == nullptr) return std::nullopt;
+  const float v = b->value[static_cast<std::size_t>(voxelIndexInBlock(key))];
+  if (std::isnan(v)) return std::nullopt;
+  return v;
+}
+
+bool GridMap::isFullyFree(const VoxelKey& key) const {
+  const Block* b = findBlock(key);
+  if (b == nullptr) return false;
+  const float v = b->value[static_cast<std::size_t>(voxelIndexInBlock(key))];
+  return v <= log_odds_.min;  // false for NaN (unknown)
+}
+
+std::size_t GridMap::knownCells() const {
+  std::size_t n = 0;
+  for (const auto& [id, b] : blocks_)
+    for (float v : b->value) n += std::isnan(v) ? 0 : 1;
+  return n;
+}
+
+std::size_t GridMap::memoryBytes() const {
+  // Block payload plus a rough per-entry cost of the hash map (node, bucket, pointer).
+  return blocks_.size() * (sizeof(Block) + 48) + blocks_.bucket_count() * sizeof(void*);
+}
+
+void GridMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) const {
+  for (const auto& [id, b] : blocks_) {
+    const VoxelKey bk = VoxelKey::fromPacked(id);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const float v = b->value[static_cast<std::size_t>(i)];
+      if (std::isnan(v)) continue;
+      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + (i & (kBlockSide - 1))),
+                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + ((i >> kBlockShift) & (kBlockSide - 1))),
+                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + (i >> (2 * kBlockShift)))}};
+      f(k, v);
+    }
+  }
+}
+
+bool GridMap::identical(const GridMap& other, std::string* why) const {
+  auto fail = [&](const std::string& msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (knownCells() != other.knownCells())
+    return fail("known cells differ: " + std::to_string(knownCells()) + " vs " + std::to_string(other.knownCells()));
+  for (const auto& [id, b] : blocks_) {
+    auto it = other.blocks_.find(id);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const float va = b->value[static_cast<std::size_t>(i)];
+      const float vb = it == other.blocks_.end() ? std::numeric_limits<float>::quiet_NaN()
+                                                 : it->second->value[static_cast<std::size_t>(i)];
+      if (std::bit_cast<std::uint32_t>(va) != std::bit_cast<std::uint32_t>(vb)) {
+        return fail("cell differs in block " + std::to_string(id) + " voxel " + std::to_string(i) + ": " +
+                    std::to_string(va) + " vs " + std::to_string(vb));
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace densemap::map

@@ -1,0 +1,215 @@
+#include "densemap/map/octree_map.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <vector>
+
+namespace densemap::map {
+
+namespace {
+
+constexpr unsigned kTreeDepth = 16;
+
+struct Entry {
+  VoxelKey key;
+  std::uint32_t n_free;
+  std::uint32_t n_hit;
+};
+
+/// OctoMap's computeChildIdx.
+inline unsigned childIndex(const VoxelKey& k, unsigned level) {
+  return ((k[0] >> level) & 1u) | (((k[1] >> level) & 1u) << 1) | (((k[2] >> level) & 1u) << 2);
+}
+
+/// Interleaves the key bits so that sorting by the code visits OctoMap's children in index order.
+inline std::uint64_t mortonCode(const VoxelKey& k) {
+  auto spread = [](std::uint64_t v) {
+    v &= 0xFFFF;
+    v = (v | (v << 16)) & 0x0000FF0000FFULL;
+    v = (v | (v << 8)) & 0x00F00F00F00FULL;
+    v = (v | (v << 4)) & 0x0C30C30C30C3ULL;
+    v = (v | (v << 2)) & 0x249249249249ULL;
+    return v;
+  };
+  return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
+}
+
+/// Voxel indices of an evidence block listed in Morton order.
+const std::array<std::uint16_t, kBlockVoxels>& mortonOrderInBlock() {
+  static const std::array<std::uint16_t, kBlockVoxels> order = [] {
+    std::array<std::uint16_t, kBlockVoxels> o{};
+    for (int m = 0; m < kBlockVoxels; ++m) {
+      int x = 0, y = 0, z = 0;
+      for (int b = 0; b < kBlockShift; ++b) {
+        x |= ((m >> (3 * b)) & 1) << b;
+        y |= ((m >> (3 * b + 1)) & 1) << b;
+        z |= ((m >> (3 * b + 2)) & 1) << b;
+      }
+      o[static_cast<std::size_t>(m)] = static_cast<std::uint16_t>(x | (y << kBlockShift) | (z << (2 * kBlockShift)));
+    }
+    return o;
+  }();
+  return order;
+}
+
+float scaled(std::uint32_t n, float l) { return n == 1 ? l : static_cast<float>(n) * l; }
+
+/// Applies a Morton-sorted batch of cell updates in one depth-first pass. Mirrors
+/// OccupancyOcTreeBase::updateNode/updateNodeRecurs (lazy_eval = false) for each cell: early abort on a
+/// clamped cell, expansion of pruned nodes, creation of unknown nodes, then prune-or-max on the way up.
+class BatchTreeUpdater {
+ public:
+  BatchTreeUpdater(octomap::OcTree& tree, const LogOdds& lo) : tree_(tree), lo_(lo) {}
+
+  void run(std::vector<Entry>& entries) {
+    if (entries.empty()) return;
+    std::size_t start = 0;
+    if (tree_.getRoot() == nullptr) {
+      // Let OctoMap create the root through its own code path with the first cell.
+      const Entry& e = entries.front();
+      const octomap::OcTreeKey k(e.key[0], e.key[1], e.key[2]);
+      if (e.n_free > 0) tree_.updateNode(k, scaled(e.n_free, lo_.miss), false);
+      if (e.n_hit > 0) tree_.updateNode(k, scaled(e.n_hit, lo_.hit), false);
+      start = 1;
+    }
+    if (start < entries.size()) recurse(tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size());
+  }
+
+ private:
+  void recurse(octomap::OcTreeNode* node, bool just_created, unsigned depth, Entry* b, Entry* e) {
+    if (depth == kTreeDepth) {
+      node->setLogOdds(applyCellUpdate(node->getLogOdds(), b->n_free, b->n_hit, lo_));
+      return;
+    }
+    if (!just_created && !tree_.nodeHasChildren(node)) {
+      // A pruned leaf: OctoMap's early abort skips the cells it already clamps; expand only for the rest.
+      const float v = node->getLogOdds();
+      e = std::remove_if(b, e, [&](const Entry& x) { return isNoOpUpdate(true, v, x.n_free, x.n_hit, lo_); });
+      if (e == b) return;
+      tree_.expandNode(node);
+    }
+    const unsigned level = kTreeDepth - 1 - depth;
+    for (Entry* it = b; it != e;) {
+      const unsigned pos = childIndex(it->key, level);
+      Entry* run_end = it + 1;
+      while (run_end != e && childIndex(run_end->key, level) == pos) ++run_end;
+      bool created = false;
+      if (!tree_.nodeChildExists(node, pos)) {
+        tree_.createNodeChild(node, pos);
+        created = true;
+      }
+      recurse(tree_.getNodeChild(node, pos), created, depth + 1, it, run_end);
+      it = run_end;
+    }
+    if (!tree_.pruneNode(node)) node->updateOccupancyChildren();
+  }
+
+  octomap::OcTree& tree_;
+  const LogOdds& lo_;
+};
+
+}  // namespace
+
+std::unique_ptr<octomap::OcTree> OctreeMap::makeTree(double resolution, const OccupancyParams& params) {
+  auto tree = std::make_unique<octomap::OcTree>(resolution);
+  tree->setProbHit(params.prob_hit);
+  tree->setProbMiss(params.prob_miss);
+  tree->setClampingThresMin(params.clamp_min);
+  tree->setClampingThresMax(params.clamp_max);
+  tree->setOccupancyThres(params.occupied_threshold);
+  return tree;
+}
+
+OctreeMap::OctreeMap(double resolution, const OccupancyParams& params)
+    : OccupancyMap(resolution, params), tree_(makeTree(resolution, params)) {}
+
+void OctreeMap::apply(const ScanEvidence& evidence) {
+  // Blocks are aligned 8^3 subtrees: sort blocks by Morton code, then list each block's cells in Morton
+  // order, which sorts every cell without a full sort.
+  std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks;
+  blocks.reserve(evidence.blockCount());
+  evidence.forEachBlock([&](const EvidenceBlock& b) { blocks.emplace_back(mortonCode(b.base), &b); });
+  std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Entry> entries;
+  entries.reserve(blocks.size() * 64);
+  const auto& order = mortonOrderInBlock();
+  for (const auto& [code, b] : blocks) {
+    for (std::uint16_t i : order) {
+      const std::uint32_t nf = b->n_free[i], nh = b->n_hit[i];
+      if ((nf | nh) == 0) continue;
+      VoxelKey k = b->base;
+      k[0] = static_cast<geometry::KeyCoord>(k[0] + (i & (kBlockSide - 1)));
+      k[1] = static_cast<geometry::KeyCoord>(k[1] + ((i >> kBlockShift) & (kBlockSide - 1)));
+      k[2] = static_cast<geometry::KeyCoord>(k[2] + (i >> (2 * kBlockShift)));
+      entries.push_back({k, nf, nh});
+    }
+  }
+  if (evidence.overflowCount() > 0) {
+    evidence.forEachCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
+      if (!evidence.insideBox(k)) entries.push_back({k, nf, nh});
+    });
+    std::sort(entries.begin(), entries.end(),
+              [](const Entry& a, const Entry& b) { return mortonCode(a.key) < mortonCode(b.key); });
+  }
+  BatchTreeUpdater(*tree_, log_odds_).run(entries);
+}
+
+std::optional<float> OctreeMap::logOdds(const VoxelKey& key) const {
+  const octomap::OcTreeNode* n = tree_->search(octomap::OcTreeKey(key[0], key[1], key[2]));
+  if (n == nullptr) return std::nullopt;
+  return n->getLogOdds();
+}
+
+bool OctreeMap::isFullyFree(const VoxelKey& key) const {
+  const octomap::OcTreeNode* n = tree_->search(octomap::OcTreeKey(key[0], key[1], key[2]));
+  return n != nullptr && n->getLogOdds() <= log_odds_.min;
+}
+
+std::size_t OctreeMap::knownCells() const {
+  std::size_t n = 0;
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    const std::size_t side = std::size_t{1} << (kTreeDepth - it.getDepth());
+    n += side * side * side;
+  }
+  return n;
+}
+
+std::size_t OctreeMap::memoryBytes() const { return tree_->memoryUsage(); }
+
+void OctreeMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) const {
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    const octomap::OcTreeKey base = it.getIndexKey();
+    const unsigned side = 1u << (kTreeDepth - it.getDepth());
+    const float v = it->getLogOdds();
+    for (unsigned x = 0; x < side; ++x)
+      for (unsigned y = 0; y < side; ++y)
+        for (unsigned z = 0; z < side; ++z)
+          f(VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + x), static_cast<geometry::KeyCoord>(base[1] + y),
+                      static_cast<geometry::KeyCoord>(base[2] + z)}},
+            v);
+  }
+}
+
+bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::string* why) {
+  auto fail = [&](const std::string& msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (a.size() != b.size()) return fail("node counts differ: " + std::to_string(a.size()) + " vs " + std::to_string(b.size()));
+  if (a.getResolution() != b.getResolution()) return fail("resolutions differ");
+  auto ia = a.begin_tree(), ea = a.end_tree();
+  auto ib = b.begin_tree(), eb = b.end_tree();
+  std::size_t i = 0;
+  for (; ia != ea && ib != eb; ++ia, ++ib, ++i) {
+    if (ia.getDepth() != ib.getDepth() || !(ia.getKey() == ib.getKey()) || ia.isLeaf() != ib.isLeaf())
+      return fail("shape differs at node " + std::to_string(i));
+    if (std::bit_cast<std::uint32_t>(ia->getLogOdds()) != std::bit_cast<std::uint32_t>(ib->getLogOdds()))
+      return fail("log-odds differ at node " + std::to_string(i) + " depth " + std::to_string(ia.getDepth()) + ": " +
+                  std::to_string(ia->getLogOdds()) + " vs " + std::to_string(ib->getLogOdds()));
+  }
+  if ((ia == ea) != (ib == eb)) return fail("trees have different lengths");
+  return true;
+}
+
+}  // namespace densemap::map

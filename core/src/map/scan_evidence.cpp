@@ -1,0 +1,167 @@
+#include "densemap/map/scan_evidence.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace densemap::map {
+
+ScanEvidence::ScanEvidence() : chunks_(kMaxChunks), chunk_ptrs_(std::make_unique<std::atomic<Chunk*>[]>(kMaxChunks)) {
+  for (std::size_t i = 0; i < kMaxChunks; ++i) chunk_ptrs_[i].store(nullptr, std::memory_order_relaxed);
+}
+
+ScanEvidence::~ScanEvidence() = default;
+
+void ScanEvidence::reset(const VoxelKey& min_key, const VoxelKey& max_key) {
+  // Clear the blocks the previous scan used (they are reused, so steady state allocates nothing).
+  const std::size_t used = std::min(used_.load(), capacity());
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < used; ++i) {
+    Chunk* c = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed);
+    c->blocks[i % kChunkBlocks].clear();
+  }
+  used_.store(0);
+  overflow_.clear();
+  std::size_t size = 1;
+  for (int i = 0; i < 3; ++i) {
+    lo_[i] = min_key[i] >> kBlockShift;
+    dims_[i] = (max_key[i] >> kBlockShift) - lo_[i] + 1;
+    size *= static_cast<std::size_t>(std::max(dims_[i], 0));
+  }
+  if (size > directory_capacity_) {
+    directory_ = std::make_unique<std::atomic<EvidenceBlock*>[]>(size);
+    directory_capacity_ = size;
+  }
+  directory_size_ = size;
+  for (std::size_t i = 0; i < size; ++i) directory_[i].store(nullptr, std::memory_order_relaxed);
+}
+
+bool ScanEvidence::insideBox(const VoxelKey& key) const {
+  for (int i = 0; i < 3; ++i) {
+    const int b = (key[i] >> kBlockShift) - lo_[i];
+    if (b < 0 || b >= dims_[i]) return false;
+  }
+  return true;
+}
+
+std::atomic<EvidenceBlock*>* ScanEvidence::slot(const VoxelKey& key) const {
+  const int bx = (key[0] >> kBlockShift) - lo_[0];
+  const int by = (key[1] >> kBlockShift) - lo_[1];
+  const int bz = (key[2] >> kBlockShift) - lo_[2];
+  if (static_cast<unsigned>(bx) >= static_cast<unsigned>(dims_[0]) ||
+      static_cast<unsigned>(by) >= static_cast<unsigned>(dims_[1]) ||
+      static_cast<unsigned>(bz) >= static_cast<unsigned>(dims_[2]))
+    return nullptr;
+  const std::size_t idx = (static_cast<std::size_t>(bx) * static_cast<std::size_t>(dims_[1]) +
+                           static_cast<std::size_t>(by)) *
+                              static_cast<std::size_t>(dims_[2]) +
+                          static_cast<std::size_t>(bz);
+  return &directory_[idx];
+}
+
+EvidenceBlock* ScanEvidence::allocate() {
+  const std::size_t i = used_.fetch_add(1);
+  if (i >= capacity()) throw std::length_error("ScanEvidence: scan touches too many blocks");
+  const std::size_t c = i / kChunkBlocks;
+  Chunk* chunk = chunk_ptrs_[c].load(std::memory_order_acquire);
+  if (chunk == nullptr) {
+    std::lock_guard<std::mutex> lock(chunk_mutex_);
+    chunk = chunk_ptrs_[c].load(std::memory_order_acquire);
+    if (chunk == nullptr) {
+      chunks_[c] = std::make_unique<Chunk>();
+      for (auto& b : chunks_[c]->blocks) b.clear();
+      chunk = chunks_[c].get();
+      chunk_ptrs_[c].store(chunk, std::memory_order_release);
+    }
+  }
+  return &chunk->blocks[i % kChunkBlocks];
+}
+
+EvidenceBlock* ScanEvidence::findBlock(const VoxelKey& key) const {
+  const auto* s = slot(key);
+  return s ? s->load(std::memory_order_acquire) : nullptr;
+}
+
+EvidenceBlock* ScanEvidence::block(const VoxelKey& key) {
+  auto* s = slot(key);
+  if (s == nullptr) return nullptr;
+  EvidenceBlock* b = s->load(std::memory_order_acquire);
+  if (b != nullptr) return b;
+  EvidenceBlock* fresh = allocate();
+  constexpr geometry::KeyCoord mask = static_cast<geometry::KeyCoord>(~(kBlockSide - 1));
+  fresh->base = VoxelKey{{static_cast<geometry::KeyCoord>(key[0] & mask), static_cast<geometry::KeyCoord>(key[1] & mask),
+                          static_cast<geometry::KeyCoord>(key[2] & mask)}};
+  EvidenceBlock* expected = nullptr;
+  if (s->compare_exchange_strong(expected, fresh, std::memory_order_acq_rel)) {
+    fresh->installed = true;
+    return fresh;
+  }
+  return expected;  // another thread installed it first; `fresh` stays unused and empty
+}
+
+void ScanEvidence::addOverflow(const VoxelKey& key, std::uint32_t nf, std::uint32_t nh, bool saturate) {
+  std::lock_guard<std::mutex> lock(overflow_mutex_);
+  auto& c = overflow_[key];
+  if (saturate) {
+    c.first = std::max(c.first, nf);
+    c.second = std::max(c.second, nh);
+  } else {
+    c.first += nf;
+    c.second += nh;
+  }
+}
+
+void ScanEvidence::addFree(const VoxelKey& key, std::uint32_t w) {
+  if (EvidenceBlock* b = block(key)) {
+    std::atomic_ref<std::uint32_t>(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))])
+        .fetch_add(w, std::memory_order_relaxed);
+  } else {
+    addOverflow(key, w, 0, false);
+  }
+}
+
+void ScanEvidence::addHit(const VoxelKey& key, std::uint32_t w) {
+  if (EvidenceBlock* b = block(key)) {
+    std::atomic_ref<std::uint32_t>(b->n_hit[static_cast<std::size_t>(voxelIndexInBlock(key))])
+        .fetch_add(w, std::memory_order_relaxed);
+  } else {
+    addOverflow(key, 0, w, false);
+  }
+}
+
+void ScanEvidence::markFree(const VoxelKey& key) {
+  if (EvidenceBlock* b = block(key)) {
+    std::atomic_ref<std::uint32_t> c(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))]);
+    if (c.load(std::memory_order_relaxed) == 0) c.store(1, std::memory_order_relaxed);
+  } else {
+    addOverflow(key, 1, 0, true);
+  }
+}
+
+void ScanEvidence::markHit(const VoxelKey& key) {
+  if (EvidenceBlock* b = block(key)) {
+    std::atomic_ref<std::uint32_t> c(b->n_hit[static_cast<std::size_t>(voxelIndexInBlock(key))]);
+    if (c.load(std::memory_order_relaxed) == 0) c.store(1, std::memory_order_relaxed);
+  } else {
+    addOverflow(key, 0, 1, true);
+  }
+}
+
+void ScanEvidence::resolveOccupiedWins() {
+  const std::size_t n = blockCount();
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) {
+    EvidenceBlock& b = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed)->blocks[i % kChunkBlocks];
+    for (std::size_t v = 0; v < static_cast<std::size_t>(kBlockVoxels); ++v)
+      if (b.n_hit[v] != 0) b.n_free[v] = 0;
+  }
+  for (auto& [key, counts] : overflow_)
+    if (counts.second != 0) counts.first = 0;
+}
+
+std::size_t ScanEvidence::blockCount() const { return std::min(used_.load(), capacity()); }
+
+const EvidenceBlock& ScanEvidence::blockAt(std::size_t i) const {
+  return chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_acquire)->blocks[i % kChunkBlocks];
+}
+
+}  // namespace densemap::map

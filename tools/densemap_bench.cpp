@@ -1,0 +1,302 @@
+// densemap-bench: reproduces Table 2.4 (and Tables 2.2, 2.3) on any source. OctoMap's insertPointCloud
+// runs in the same invocation as the reference; every method's map is checked against its baseline.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <octomap/octomap.h>
+#include <spdlog/spdlog.h>
+
+#include "common/cli_common.h"
+#include "densemap/map/grid_map.h"
+#include "densemap/map/octree_map.h"
+#include "densemap/update/update_engine.h"
+
+using namespace densemap;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+octomap::Pointcloud toOctomap(const std::vector<geometry::Vec3f>& pts) {
+  octomap::Pointcloud pc;
+  pc.reserve(pts.size());
+  for (const auto& p : pts) pc.push_back(p.x(), p.y(), p.z());
+  return pc;
+}
+
+struct OctomapRun {
+  std::unique_ptr<octomap::OcTree> tree;
+  std::vector<double> scan_ms;
+  double total_ms = 0.0;
+};
+
+OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, double max_range) {
+  OctomapRun r;
+  r.tree = map::OctreeMap::makeTree(res, {});
+  for (const auto& s : scans) {
+    const octomap::Pointcloud pc = toOctomap(s.points);  // conversion not timed
+    const auto t = Clock::now();
+    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false, false);
+    r.scan_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t).count());
+    r.total_ms += r.scan_ms.back();
+  }
+  return r;
+}
+
+std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend, double res) {
+  if (backend == "grid") return std::make_unique<map::GridMap>(res);
+  return std::make_unique<map::OctreeMap>(res);
+}
+
+struct MethodRun {
+  std::unique_ptr<map::OccupancyMap> map;
+  update::UpdateStats sum;
+  std::vector<double> scan_ms;
+};
+
+MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string& backend, double res,
+                    const update::UpdateOptions& opt) {
+  MethodRun r;
+  r.map = makeMap(backend, res);
+  update::UpdateEngine engine(opt);
+  for (const auto& s : scans) {
+    auto st = engine.insert(*r.map, s.points, s.origin);
+    if (!st) throw std::runtime_error("scan rejected: sensor origin outside the map");
+    r.scan_ms.push_back(st->totalMs());
+    r.sum.points += st->points;
+    r.sum.rays += st->rays;
+    r.sum.super_rays += st->super_rays;
+    r.sum.grouped_points += st->grouped_points;
+    r.sum.traversed += st->traversed;
+    r.sum.unnecessary += st->unnecessary;
+    r.sum.region_cells += st->region_cells;
+    r.sum.fallbacks += st->fallbacks;
+    r.sum.generation_ms += st->generation_ms;
+    r.sum.update_ms += st->update_ms;
+  }
+  return r;
+}
+
+/// Sec. 2.4.2's on-the-fly scenario: scans arrive at `hz`; scans arriving while the mapper is busy are
+/// dropped. Uses the measured per-scan times; returns how many scans were used.
+std::size_t realtimeUsed(const std::vector<double>& scan_ms, double hz) {
+  double t = 0.0;  // seconds
+  std::size_t used = 0, next = 0;
+  while (next < scan_ms.size()) {
+    t = std::max(t, static_cast<double>(next) / hz);
+    t += scan_ms[next] / 1000.0;
+    ++used;
+    next = static_cast<std::size_t>(std::ceil(t * hz - 1e-12));
+  }
+  return used;
+}
+
+bool identicalMaps(const map::OccupancyMap& a, const map::OccupancyMap& b, std::string* why) {
+  if (a.backendName() == "grid")
+    return static_cast<const map::GridMap&>(a).identical(static_cast<const map::GridMap&>(b), why);
+  return map::identicalTrees(static_cast<const map::OctreeMap&>(a).tree(), static_cast<const map::OctreeMap&>(b).tree(), why);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"densemap-bench: update speed of baseline, super rays, culling region and both, beside OctoMap (Table 2.4)"};
+  std::string source = "sim", scans_text, resolutions = "0.2", backends = "grid,octree", methods = "all", semantics = "batch";
+  std::string log_level = "warn";
+  double max_range = -1.0, realtime = 0.0;
+  int repeat = 1, threads = 0;
+  unsigned threshold = 20;
+  bool json = false, no_unnecessary = false;
+  app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
+  app.add_option("--source", source, "scan source (see densemap-map --help)")->capture_default_str();
+  app.add_option("--scans", scans_text, "scan range FIRST:LAST (inclusive); default all");
+  app.add_option("--resolution", resolutions, "voxel size(s) in metres, comma separated")->capture_default_str();
+  app.add_option("--backend", backends, "grid, octree, or both comma separated")->capture_default_str();
+  app.add_option("--method", methods, "all, or a comma list of baseline, superrays, culling, superrays+culling")->capture_default_str();
+  app.add_option("--semantics", semantics, "batch or counting")->capture_default_str()->check(CLI::IsMember({"batch", "counting"}));
+  app.add_option("--max-range", max_range, "cut rays at this range (<0: unlimited)")->capture_default_str();
+  app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")->capture_default_str();
+  app.add_option("--repeat", repeat, "runs per configuration; medians and median ratios are reported")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--realtime", realtime, "also simulate scans arriving at this rate (Hz), dropping those arriving while busy");
+  app.add_flag("--json", json, "one JSON object per line instead of a table");
+  app.add_flag("--no-unnecessary", no_unnecessary, "skip the extra pass that counts unnecessary traversals (Table 2.3)");
+  app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  cli::setupLogging(log_level);
+  const int used_threads = cli::setThreads(threads);
+
+  try {
+    const auto sem = *map::parseSemantics(semantics);
+    std::vector<update::UpdateMethod> method_list;
+    if (methods == "all") {
+      method_list.assign(std::begin(update::kAllMethods), std::end(update::kAllMethods));
+    } else {
+      for (const auto& m : splitList(methods)) {
+        auto pm = update::parseMethod(m);
+        if (!pm) throw std::invalid_argument("unknown method '" + m + "' (baseline, superrays, culling, superrays+culling)");
+        method_list.push_back(*pm);
+      }
+    }
+    // Baseline first: later methods are compared against its map.
+    std::sort(method_list.begin(), method_list.end());
+    method_list.erase(std::unique(method_list.begin(), method_list.end()), method_list.end());
+    std::vector<std::string> backend_list = splitList(backends);
+    for (const auto& b : backend_list)
+      if (b != "grid" && b != "octree") throw std::invalid_argument("unknown backend '" + b + "' (grid, octree)");
+    std::vector<double> res_list;
+    for (const auto& r : splitList(resolutions)) res_list.push_back(std::stod(r));
+
+    auto src = io::openSource(source);
+    const auto range = cli::parseScanRange(scans_text, src->size());
+    const auto scans = cli::loadScans(*src, range);
+    std::size_t points = 0;
+    for (const auto& s : scans) points += s.points.size();
+    const double n = static_cast<double>(scans.size());
+    if (!json) {
+      std::printf("densemap-bench: %s, scans %zu:%zu (%zu points), %s semantics, max range %g, %d threads, %d repeat(s)\n",
+                  src->describe().c_str(), range.first, range.last, points, semantics.c_str(), max_range, used_threads, repeat);
+    }
+    for (double res : res_list) {
+      std::vector<double> octo_ms;
+      std::unique_ptr<octomap::OcTree> reference;
+      struct Acc {
+        std::vector<double> total_ms, proc_ms, update_ms, ratio;
+        update::UpdateStats stats;
+        std::vector<double> scan_ms;
+        bool identical = true;
+        std::string why;
+      };
+      std::map<std::pair<std::string, update::UpdateMethod>, Acc> acc;
+      std::vector<double> octo_scan_ms;
+      for (int rep = 0; rep < repeat; ++rep) {
+        OctomapRun o = runOctomap(scans, res, max_range);
+        octo_ms.push_back(o.total_ms);
+        if (rep == 0) {
+          reference = std::move(o.tree);
+          octo_scan_ms = o.scan_ms;
+        }
+        for (const auto& backend : backend_list) {
+          std::unique_ptr<map::OccupancyMap> baseline_map;
+          if (rep == 0 && std::find(method_list.begin(), method_list.end(), update::UpdateMethod::kBaseline) == method_list.end()) {
+            update::UpdateOptions bo;
+            bo.method = update::UpdateMethod::kBaseline;
+            bo.semantics = sem;
+            bo.max_range = max_range;
+            baseline_map = runMethod(scans, backend, res, bo).map;
+          }
+          for (auto m : method_list) {
+            update::UpdateOptions opt;
+            opt.method = m;
+            opt.semantics = sem;
+            opt.max_range = max_range;
+            opt.super_rays.threshold = threshold;
+            MethodRun r = runMethod(scans, backend, res, opt);
+            Acc& a = acc[{backend, m}];
+            const double total = r.sum.totalMs();
+            a.total_ms.push_back(total);
+            a.proc_ms.push_back(r.sum.generation_ms);
+            a.update_ms.push_back(r.sum.update_ms);
+            a.ratio.push_back(o.total_ms / total);
+            if (rep == 0) {
+              a.stats = r.sum;
+              a.scan_ms = r.scan_ms;
+              if (m == update::UpdateMethod::kBaseline) baseline_map = std::move(r.map);
+              // The reference: OctoMap itself for octree + batch, else this backend's baseline.
+              std::string why;
+              bool same;
+              if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
+                same = map::identicalTrees(static_cast<map::OctreeMap&>(r.map ? *r.map : *baseline_map).tree(), *reference, &why);
+              } else {
+                same = identicalMaps(r.map ? *r.map : *baseline_map, *baseline_map, &why);
+              }
+              a.identical = same;
+              a.why = why;
+            }
+          }
+        }
+      }
+      // Table 2.3: unnecessary traversals, counted in a separate untimed pass (needs a lookup per cell).
+      if (!no_unnecessary) {
+        for (const auto& backend : backend_list)
+          for (auto m : method_list) {
+            update::UpdateOptions opt;
+            opt.method = m;
+            opt.semantics = sem;
+            opt.max_range = max_range;
+            opt.super_rays.threshold = threshold;
+            opt.count_unnecessary = true;
+            acc[{backend, m}].stats.unnecessary = runMethod(scans, backend, res, opt).sum.unnecessary;
+          }
+      }
+      const double octo = median(octo_ms);
+      if (json) {
+        nlohmann::json j = {{"method", "octomap"}, {"backend", "octomap"}, {"semantics", "batch"}, {"resolution", res},
+                            {"scans", scans.size()}, {"points", points}, {"fps", 1000.0 * n / octo},
+                            {"proc_ms", 0.0}, {"update_ms", octo / n}, {"identical", true}, {"speedup_vs_octomap", 1.0},
+                            {"threads", 1}, {"repeat", repeat}};
+        if (realtime > 0) j["realtime_used"] = realtimeUsed(octo_scan_ms, realtime);
+        std::printf("%s\n", j.dump().c_str());
+      } else {
+        std::printf("\nresolution %.2f m: OctoMap insertPointCloud %.1f ms/scan (%.2f fps)%s\n", res, octo / n, 1000.0 * n / octo,
+                    realtime > 0 ? (" realtime used " + std::to_string(realtimeUsed(octo_scan_ms, realtime)) + "/" + std::to_string(scans.size())).c_str() : "");
+        std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps", "proc ms",
+                    "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary", "identical", realtime > 0 ? "realtime" : "");
+      }
+      for (const auto& backend : backend_list)
+        for (auto m : method_list) {
+          const Acc& a = acc[{backend, m}];
+          const double total = median(a.total_ms);
+          const double ppr = a.stats.rays ? static_cast<double>(a.stats.points) / static_cast<double>(a.stats.rays) : 0.0;
+          if (!a.identical) spdlog::error("{} {} map differs from its reference: {}", backend, update::toString(m), a.why);
+          if (json) {
+            nlohmann::json j = {{"method", update::toString(m)}, {"backend", backend}, {"semantics", semantics},
+                                {"resolution", res}, {"scans", scans.size()}, {"points", points},
+                                {"fps", 1000.0 * n / total}, {"proc_ms", median(a.proc_ms) / n},
+                                {"update_ms", median(a.update_ms) / n}, {"traversed", a.stats.traversed},
+                                {"rays", a.stats.rays}, {"super_rays", a.stats.super_rays},
+                                {"points_per_ray", ppr}, {"region_cells", a.stats.region_cells},
+                                {"identical", a.identical}, {"speedup_vs_octomap", median(a.ratio)},
+                                {"octomap_ms", octo / n}, {"threads", used_threads}, {"repeat", repeat}};
+            if (!no_unnecessary) j["unnecessary"] = a.stats.unnecessary;
+            if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
+            std::printf("%s\n", j.dump().c_str());
+          } else {
+            std::printf("  %-7s %-18s %8.2f %9.1f %10.1f %7.2fx %12llu %9llu %8.2f %12s %9s %s\n", backend.c_str(),
+                        std::string(update::toString(m)).c_str(), 1000.0 * n / total, median(a.proc_ms) / n,
+                        median(a.update_ms) / n, median(a.ratio), static_cast<unsigned long long>(a.stats.traversed),
+                        static_cast<unsigned long long>(a.stats.rays), ppr,
+                        no_unnecessary ? "-" : std::to_string(a.stats.unnecessary).c_str(), a.identical ? "yes" : "NO",
+                        realtime > 0 ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" + std::to_string(scans.size())).c_str() : "");
+          }
+        }
+      bool all_identical = true;
+      for (const auto& [k, a] : acc) all_identical &= a.identical;
+      if (!all_identical) return 3;
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
