@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   double resolution = 0.2, max_range = -1.0;
   int threads = 0;
   unsigned threshold = 20;
+  std::size_t closure_every = 8;
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
   app.add_option("--source", source, "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or .graph")->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"batch", "counting"}));
   app.add_option("--max-range", max_range, "cut rays at this range in metres (<0: unlimited)")->capture_default_str();
   app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")->capture_default_str();
+  app.add_option("--closure-sample", closure_every, "culling + batch: walk every N-th ray first, then close the region over its marks (0: off)")->capture_default_str();
   app.add_option("--output", output, "save the map: .bt or .ot (octree backend)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
@@ -47,6 +49,8 @@ int main(int argc, char** argv) {
     opt.semantics = *map::parseSemantics(semantics);
     opt.max_range = max_range;
     opt.super_rays.threshold = threshold;
+    opt.in_scan_closure = closure_every > 0;
+    opt.closure_sample_every = closure_every;
     std::unique_ptr<map::OccupancyMap> m;
     if (backend == "grid") {
       m = std::make_unique<map::GridMap>(resolution);

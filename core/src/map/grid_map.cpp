@@ -8,11 +8,6 @@
 namespace densemap::map {
 
 namespace {
-bool hasCounts(const EvidenceBlock& b) {
-  std::uint32_t any = 0;
-  for (int i = 0; i < kBlockVoxels; ++i) any |= b.n_free[static_cast<std::size_t>(i)] | b.n_hit[static_cast<std::size_t>(i)];
-  return any != 0;
-}
 
 float updatedValue(float current, std::uint32_t nf, std::uint32_t nh, const LogOdds& lo) {
   const bool known = !std::isnan(current);
@@ -25,7 +20,7 @@ void GridMap::apply(const ScanEvidence& evidence) {
   std::vector<std::pair<const EvidenceBlock*, Block*>> work;
   work.reserve(evidence.blockCount());
   evidence.forEachBlock([&](const EvidenceBlock& eb) {
-    if (!hasCounts(eb)) return;  // e.g. a block holding only culling-region cells
+    if (!eb.hasEvidence()) return;  // e.g. a block holding only culling-region cells
     auto& slot = blocks_[blockId(eb.base)];
     if (!slot) slot = std::make_unique<Block>();
     work.emplace_back(&eb, slot.get());
@@ -35,24 +30,20 @@ void GridMap::apply(const ScanEvidence& evidence) {
   for (std::size_t w = 0; w < work.size(); ++w) {
     const EvidenceBlock& eb = *work[w].first;
     Block& mb = *work[w].second;
-    for (std::size_t i = 0; i < static_cast<std::size_t>(kBlockVoxels); ++i) {
-      const std::uint32_t nf = eb.n_free[i], nh = eb.n_hit[i];
-      if ((nf | nh) == 0) continue;
-      mb.value[i] = updatedValue(mb.value[i], nf, nh, lo);
-    }
+    eb.forEachEvidenceVoxel([&](int i) {
+      const auto [nf, nh] = evidence.counts(eb, i);
+      float& v = mb.value[static_cast<std::size_t>(i)];
+      v = updatedValue(v, nf, nh, lo);
+    });
   }
   // Cells recorded outside the scan's box (normally none).
   if (evidence.overflowCount() > 0) {
-    std::vector<std::pair<VoxelKey, std::pair<std::uint32_t, std::uint32_t>>> extra;
-    evidence.forEachCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
-      if (!evidence.insideBox(k)) extra.push_back({k, {nf, nh}});
-    });
-    for (const auto& [k, c] : extra) {
+    evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
       auto& slot = blocks_[blockId(k)];
       if (!slot) slot = std::make_unique<Block>();
       float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
-      v = updatedValue(v, c.first, c.second, lo);
-    }
+      v = updatedValue(v, nf, nh, lo);
+    });
   }
 }
 
@@ -94,9 +85,10 @@ void GridMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) 
     for (int i = 0; i < kBlockVoxels; ++i) {
       const float v = b->value[static_cast<std::size_t>(i)];
       if (std::isnan(v)) continue;
-      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + (i & (kBlockSide - 1))),
-                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + ((i >> kBlockShift) & (kBlockSide - 1))),
-                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + (i >> (2 * kBlockShift)))}};
+      const auto d = voxelOffsetInBlock(i);
+      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
+                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
+                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
       f(k, v);
     }
   }

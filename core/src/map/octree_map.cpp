@@ -11,12 +11,6 @@ namespace {
 
 constexpr unsigned kTreeDepth = 16;
 
-struct Entry {
-  VoxelKey key;
-  std::uint32_t n_free;
-  std::uint32_t n_hit;
-};
-
 /// OctoMap's computeChildIdx.
 inline unsigned childIndex(const VoxelKey& k, unsigned level) {
   return ((k[0] >> level) & 1u) | (((k[1] >> level) & 1u) << 1) | (((k[2] >> level) & 1u) << 2);
@@ -35,25 +29,11 @@ inline std::uint64_t mortonCode(const VoxelKey& k) {
   return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
 }
 
-/// Voxel indices of an evidence block listed in Morton order.
-const std::array<std::uint16_t, kBlockVoxels>& mortonOrderInBlock() {
-  static const std::array<std::uint16_t, kBlockVoxels> order = [] {
-    std::array<std::uint16_t, kBlockVoxels> o{};
-    for (int m = 0; m < kBlockVoxels; ++m) {
-      int x = 0, y = 0, z = 0;
-      for (int b = 0; b < kBlockShift; ++b) {
-        x |= ((m >> (3 * b)) & 1) << b;
-        y |= ((m >> (3 * b + 1)) & 1) << b;
-        z |= ((m >> (3 * b + 2)) & 1) << b;
-      }
-      o[static_cast<std::size_t>(m)] = static_cast<std::uint16_t>(x | (y << kBlockShift) | (z << (2 * kBlockShift)));
-    }
-    return o;
-  }();
-  return order;
-}
-
 float scaled(std::uint32_t n, float l) { return n == 1 ? l : static_cast<float>(n) * l; }
+
+}  // namespace
+
+using Entry = OctreeMap::Entry;
 
 /// Applies a Morton-sorted batch of cell updates in one depth-first pass. Mirrors
 /// OccupancyOcTreeBase::updateNode/updateNodeRecurs (lazy_eval = false) for each cell: early abort on a
@@ -109,8 +89,6 @@ class BatchTreeUpdater {
   const LogOdds& lo_;
 };
 
-}  // namespace
-
 std::unique_ptr<octomap::OcTree> OctreeMap::makeTree(double resolution, const OccupancyParams& params) {
   auto tree = std::make_unique<octomap::OcTree>(resolution);
   tree->setProbHit(params.prob_hit);
@@ -125,30 +103,24 @@ OctreeMap::OctreeMap(double resolution, const OccupancyParams& params)
     : OccupancyMap(resolution, params), tree_(makeTree(resolution, params)) {}
 
 void OctreeMap::apply(const ScanEvidence& evidence) {
-  // Blocks are aligned 8^3 subtrees: sort blocks by Morton code, then list each block's cells in Morton
-  // order, which sorts every cell without a full sort.
-  std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks;
-  blocks.reserve(evidence.blockCount());
+  // Blocks are aligned subtrees: sort blocks by Morton code, then list each block's cells in index order
+  // (Morton order within the block), which sorts every cell without a full sort.
+  auto& blocks = blocks_;
+  blocks.clear();
   evidence.forEachBlock([&](const EvidenceBlock& b) { blocks.emplace_back(mortonCode(b.base), &b); });
   std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<Entry> entries;
-  entries.reserve(blocks.size() * 64);
-  const auto& order = mortonOrderInBlock();
+  auto& entries = entries_;
+  entries.clear();
   for (const auto& [code, b] : blocks) {
-    for (std::uint16_t i : order) {
-      const std::uint32_t nf = b->n_free[i], nh = b->n_hit[i];
-      if ((nf | nh) == 0) continue;
-      VoxelKey k = b->base;
-      k[0] = static_cast<geometry::KeyCoord>(k[0] + (i & (kBlockSide - 1)));
-      k[1] = static_cast<geometry::KeyCoord>(k[1] + ((i >> kBlockShift) & (kBlockSide - 1)));
-      k[2] = static_cast<geometry::KeyCoord>(k[2] + (i >> (2 * kBlockShift)));
-      entries.push_back({k, nf, nh});
-    }
+    // Voxel indices are Morton ranks within the block, so index order is OctoMap's child order.
+    b->forEachEvidenceVoxel([&](int i) {
+      const auto [nf, nh] = evidence.counts(*b, i);
+      entries.push_back({b->voxelKey(i), nf, nh});
+    });
   }
   if (evidence.overflowCount() > 0) {
-    evidence.forEachCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
-      if (!evidence.insideBox(k)) entries.push_back({k, nf, nh});
-    });
+    evidence.forEachOverflowCell(
+        [&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) { entries.push_back({k, nf, nh}); });
     std::sort(entries.begin(), entries.end(),
               [](const Entry& a, const Entry& b) { return mortonCode(a.key) < mortonCode(b.key); });
   }

@@ -1,9 +1,20 @@
 #include "densemap/map/scan_evidence.h"
 
 #include <algorithm>
+#include <new>
 #include <stdexcept>
+#include <type_traits>
 
 namespace densemap::map {
+
+static_assert(std::is_trivially_default_constructible_v<BitPlane>);
+
+ScanEvidence::Chunk::Chunk()
+    : memory(sizeof(EvidenceBlock) * kChunkBlocks),
+      blocks(std::launder(reinterpret_cast<EvidenceBlock*>(memory.data()))) {
+  // The mapping is zeroed, which is an empty block: construct the objects in place without touching more.
+  for (std::size_t i = 0; i < kChunkBlocks; ++i) ::new (static_cast<void*>(blocks + i)) EvidenceBlock();
+}
 
 ScanEvidence::ScanEvidence() : chunks_(kMaxChunks), chunk_ptrs_(std::make_unique<std::atomic<Chunk*>[]>(kMaxChunks)) {
   for (std::size_t i = 0; i < kMaxChunks; ++i) chunk_ptrs_[i].store(nullptr, std::memory_order_relaxed);
@@ -11,14 +22,19 @@ ScanEvidence::ScanEvidence() : chunks_(kMaxChunks), chunk_ptrs_(std::make_unique
 
 ScanEvidence::~ScanEvidence() = default;
 
-void ScanEvidence::reset(const VoxelKey& min_key, const VoxelKey& max_key) {
-  // Clear the blocks the previous scan used (they are reused, so steady state allocates nothing).
+void ScanEvidence::reset(const VoxelKey& min_key, const VoxelKey& max_key, bool counting) {
+  // Clear the blocks the previous scan used (they are reused, so steady state allocates nothing); counters
+  // are only touched when the previous scan used them.
   const std::size_t used = std::min(used_.load(), capacity());
+  const bool counters = counters_dirty_, regions = regions_dirty_;
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < used; ++i) {
     Chunk* c = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed);
-    c->blocks[i % kChunkBlocks].clear();
+    c->blocks[i % kChunkBlocks].clear(counters, regions);
   }
+  regions_dirty_ = false;
+  counting_ = counting;
+  counters_dirty_ = counting;
   used_.store(0);
   overflow_.clear();
   std::size_t size = 1;
@@ -68,12 +84,25 @@ EvidenceBlock* ScanEvidence::allocate() {
     chunk = chunk_ptrs_[c].load(std::memory_order_acquire);
     if (chunk == nullptr) {
       chunks_[c] = std::make_unique<Chunk>();
-      for (auto& b : chunks_[c]->blocks) b.clear();
       chunk = chunks_[c].get();
       chunk_ptrs_[c].store(chunk, std::memory_order_release);
     }
   }
-  return &chunk->blocks[i % kChunkBlocks];
+  EvidenceBlock* b = &chunk->blocks[i % kChunkBlocks];
+  if (counting_ && b->counters == nullptr) {
+    // First counting use of this chunk: give all its blocks zeroed counters (under the chunk lock).
+    std::lock_guard<std::mutex> lock(chunk_mutex_);
+    if (b->counters == nullptr) {
+      chunks_[c]->counters = std::make_unique<std::array<EvidenceBlock::Counters, kChunkBlocks>>();
+      for (std::size_t k = 0; k < kChunkBlocks; ++k) {
+        auto& cnt = (*chunks_[c]->counters)[k];
+        cnt.n_free.fill(0);
+        cnt.n_hit.fill(0);
+        chunks_[c]->blocks[k].counters = &cnt;
+      }
+    }
+  }
+  return b;
 }
 
 EvidenceBlock* ScanEvidence::findBlock(const VoxelKey& key) const {
@@ -112,8 +141,9 @@ void ScanEvidence::addOverflow(const VoxelKey& key, std::uint32_t nf, std::uint3
 
 void ScanEvidence::addFree(const VoxelKey& key, std::uint32_t w) {
   if (EvidenceBlock* b = block(key)) {
-    std::atomic_ref<std::uint32_t>(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))])
-        .fetch_add(w, std::memory_order_relaxed);
+    const auto i = static_cast<std::size_t>(voxelIndexInBlock(key));
+    std::atomic_ref<std::uint32_t>(b->counters->n_free[i]).fetch_add(w, std::memory_order_relaxed);
+    b->free.setAtomic(static_cast<int>(i));
   } else {
     addOverflow(key, w, 0, false);
   }
@@ -121,8 +151,9 @@ void ScanEvidence::addFree(const VoxelKey& key, std::uint32_t w) {
 
 void ScanEvidence::addHit(const VoxelKey& key, std::uint32_t w) {
   if (EvidenceBlock* b = block(key)) {
-    std::atomic_ref<std::uint32_t>(b->n_hit[static_cast<std::size_t>(voxelIndexInBlock(key))])
-        .fetch_add(w, std::memory_order_relaxed);
+    const auto i = static_cast<std::size_t>(voxelIndexInBlock(key));
+    std::atomic_ref<std::uint32_t>(b->counters->n_hit[i]).fetch_add(w, std::memory_order_relaxed);
+    b->hit.setAtomic(static_cast<int>(i));
   } else {
     addOverflow(key, 0, w, false);
   }
@@ -130,8 +161,7 @@ void ScanEvidence::addHit(const VoxelKey& key, std::uint32_t w) {
 
 void ScanEvidence::markFree(const VoxelKey& key) {
   if (EvidenceBlock* b = block(key)) {
-    std::atomic_ref<std::uint32_t> c(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))]);
-    if (c.load(std::memory_order_relaxed) == 0) c.store(1, std::memory_order_relaxed);
+    b->free.setAtomic(voxelIndexInBlock(key));
   } else {
     addOverflow(key, 1, 0, true);
   }
@@ -139,8 +169,7 @@ void ScanEvidence::markFree(const VoxelKey& key) {
 
 void ScanEvidence::markHit(const VoxelKey& key) {
   if (EvidenceBlock* b = block(key)) {
-    std::atomic_ref<std::uint32_t> c(b->n_hit[static_cast<std::size_t>(voxelIndexInBlock(key))]);
-    if (c.load(std::memory_order_relaxed) == 0) c.store(1, std::memory_order_relaxed);
+    b->hit.setAtomic(voxelIndexInBlock(key));
   } else {
     addOverflow(key, 0, 1, true);
   }
@@ -151,8 +180,7 @@ void ScanEvidence::resolveOccupiedWins() {
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
     EvidenceBlock& b = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed)->blocks[i % kChunkBlocks];
-    for (std::size_t v = 0; v < static_cast<std::size_t>(kBlockVoxels); ++v)
-      if (b.n_hit[v] != 0) b.n_free[v] = 0;
+    for (std::size_t w = 0; w < b.free.words.size(); ++w) b.free.words[w] &= ~b.hit.words[w];
   }
   for (auto& [key, counts] : overflow_)
     if (counts.second != 0) counts.first = 0;
@@ -161,6 +189,10 @@ void ScanEvidence::resolveOccupiedWins() {
 std::size_t ScanEvidence::blockCount() const { return std::min(used_.load(), capacity()); }
 
 const EvidenceBlock& ScanEvidence::blockAt(std::size_t i) const {
+  return chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_acquire)->blocks[i % kChunkBlocks];
+}
+
+EvidenceBlock& ScanEvidence::blockAt(std::size_t i) {
   return chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_acquire)->blocks[i % kChunkBlocks];
 }
 

@@ -10,25 +10,17 @@ using map::EvidenceBlock;
 
 namespace {
 
-bool markVisited(map::ScanEvidence& ev, const VoxelKey& k) {
-  EvidenceBlock* b = ev.block(k);
-  if (b == nullptr) return false;  // outside the scan's box
-  const int i = map::voxelIndexInBlock(k);
-  if (EvidenceBlock::testBit(b->visited, i)) return false;
-  EvidenceBlock::setBit(b->visited, i);
-  return true;
-}
-
-}  // namespace
-
-CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const VoxelKey& o, map::ScanEvidence& ev) {
+/// Alg. 3's breadth-first search, generic over the admission test, the flag marking membership and the
+/// flag marking cells already queued.
+template <map::BitPlane EvidenceBlock::*kMember, map::BitPlane EvidenceBlock::*kQueued, class Admit>
+CullingRegionStats growRegion(const VoxelKey& o, map::ScanEvidence& ev, Admit&& admit) {
   CullingRegionStats stats;
-  // Alg. 3 lines 2-5.
-  if (!ev.insideBox(o) || !map.isFullyFree(o)) return stats;
+  ev.noteRegionsUsed();
+  // Lines 2-5.
+  if (!ev.insideBox(o) || !admit(o)) return stats;
   std::deque<VoxelKey> queue;
   auto insert = [&](const VoxelKey& c) {
-    EvidenceBlock* b = ev.block(c);
-    EvidenceBlock::setBit(b->region, map::voxelIndexInBlock(c));
+    (ev.block(c)->*kMember).set(map::voxelIndexInBlock(c));
     ++stats.cells;
   };
   auto pushNeighbours = [&](const VoxelKey& c) {
@@ -41,10 +33,14 @@ CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const Voxe
         if (v < 0 || v > 0xFFFF) continue;
         VoxelKey n = c;
         n[a] = static_cast<KeyCoord>(v);
-        if (markVisited(ev, n)) queue.push_back(n);
+        EvidenceBlock* nb = ev.block(n);
+        const int ni = map::voxelIndexInBlock(n);
+        if (nb == nullptr || (nb->*kQueued).test(ni)) continue;  // outside the scan's box, or queued already
+        (nb->*kQueued).set(ni);
+        queue.push_back(n);
       }
   };
-  markVisited(ev, o);
+  (ev.block(o)->*kQueued).set(map::voxelIndexInBlock(o));
   insert(o);
   pushNeighbours(o);
   // Lines 6-13: FIFO order pops cells by Manhattan distance, so a cell's test cells are settled before it.
@@ -58,13 +54,29 @@ CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const Voxe
       if (d == 0) continue;
       VoxelKey t = c;
       t[a] = static_cast<KeyCoord>(static_cast<int>(c[a]) - (d > 0 ? 1 : -1));
-      ok = ev.inRegion(t);
+      const EvidenceBlock* tb = ev.findBlock(t);
+      ok = tb != nullptr && (tb->*kMember).test(map::voxelIndexInBlock(t));
     }
-    if (!ok || !map.isFullyFree(c)) continue;
+    if (!ok || !admit(c)) continue;
     insert(c);
     pushNeighbours(c);
   }
   return stats;
+}
+
+}  // namespace
+
+CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const VoxelKey& o, map::ScanEvidence& ev) {
+  return growRegion<&EvidenceBlock::region, &EvidenceBlock::visited>(
+      o, ev, [&](const VoxelKey& c) { return map.isFullyFree(c); });
+}
+
+CullingRegionStats CullingRegion::buildClosed(const VoxelKey& o, map::ScanEvidence& ev) {
+  return growRegion<&EvidenceBlock::closed, &EvidenceBlock::seen>(o, ev, [&](const VoxelKey& c) {
+    const EvidenceBlock* b = ev.findBlock(c);
+    const int i = map::voxelIndexInBlock(c);
+    return b != nullptr && (b->region.test(i) || b->free.test(i));
+  });
 }
 
 }  // namespace densemap::update

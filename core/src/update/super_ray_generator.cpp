@@ -3,7 +3,7 @@
 #include <parallel/algorithm>
 
 #include <algorithm>
-#include <unordered_map>
+#include <omp.h>
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/mapping_line.h"
@@ -31,97 +31,110 @@ bool endIsRobust(const geometry::RaySetup& r) {
   return true;
 }
 
-struct Segments {
-  int xy, yz, zx;
-  bool operator==(const Segments&) const = default;
-};
-struct SegmentsHash {
-  std::size_t operator()(const Segments& s) const noexcept {
-    return static_cast<std::size_t>(s.xy) * 1000003u ^ static_cast<std::size_t>(s.yz) * 7919u ^
-           static_cast<std::size_t>(s.zx);
+struct Classified {
+  int seg[3];
+  std::uint32_t index;  // point index
+  bool operator<(const Classified& o) const {
+    if (seg[0] != o.seg[0]) return seg[0] < o.seg[0];
+    if (seg[1] != o.seg[1]) return seg[1] < o.seg[1];
+    if (seg[2] != o.seg[2]) return seg[2] < o.seg[2];
+    return index < o.index;
   }
 };
 
 }  // namespace
 
-std::vector<SuperRay> SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
-                                                  const std::vector<Vec3f>& ends, SuperRayStats* stats) const {
+void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
+                                 const std::vector<Vec3f>& ends, std::vector<SuperRay>& out, SuperRayStats* stats) {
+  out.clear();
   VoxelKey ok;
-  std::vector<SuperRay> out;
-  if (!conv.toKey(origin, ok)) return out;
+  if (!conv.toKey(origin, ok)) return;
 
-  // Group the rays by end cell (sort by packed key, then index, for a deterministic order).
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> order(ends.size());
+  // Group the rays by end cell (sort by packed key, then index, for a deterministic grouping).
+  order_.resize(ends.size());
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < ends.size(); ++i) {
     VoxelKey k;
     conv.toKey(ends[i], k);
-    order[i] = {k.packed(), static_cast<std::uint32_t>(i)};
+    order_[i] = {k.packed(), static_cast<std::uint32_t>(i)};
   }
-  __gnu_parallel::sort(order.begin(), order.end());
-  std::vector<std::size_t> group_begin;
-  for (std::size_t i = 0; i < order.size(); ++i)
-    if (i == 0 || order[i].first != order[i - 1].first) group_begin.push_back(i);
-  group_begin.push_back(order.size());
-  const std::size_t groups = group_begin.size() - 1;
+  __gnu_parallel::sort(order_.begin(), order_.end());
+  group_begin_.clear();
+  for (std::size_t i = 0; i < order_.size(); ++i)
+    if (i == 0 || order_[i].first != order_[i - 1].first) group_begin_.push_back(i);
+  group_begin_.push_back(order_.size());
+  const std::size_t groups = group_begin_.size() - 1;
 
   const GridPlanes planes[3] = {GridPlanes(conv, ok[0]), GridPlanes(conv, ok[1]), GridPlanes(conv, ok[2])};
   const double o[3] = {origin.x(), origin.y(), origin.z()};
+  const std::uint32_t k_min = std::max<std::uint32_t>(options_.threshold, 2);
 
-  std::vector<std::vector<SuperRay>> per_group(groups);
   std::uint64_t unsafe = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : unsafe)
-  for (std::size_t g = 0; g < groups; ++g) {
-    const std::size_t b = group_begin[g], e = group_begin[g + 1];
-    auto& rays = per_group[g];
-    if (e - b < options_.threshold || e - b < 2) {
-      for (std::size_t i = b; i < e; ++i) rays.push_back({ends[order[i].second], 1});
-      continue;
-    }
-    const VoxelKey ck = VoxelKey::fromPacked(order[b].first);
-    // Alg. 2: three mapping lines, one per 2D sub-space.
+#pragma omp parallel reduction(+ : unsafe)
+  {
+#pragma omp single
+    per_thread_.resize(static_cast<std::size_t>(omp_get_num_threads()));
+    auto& rays = per_thread_[static_cast<std::size_t>(omp_get_thread_num())];
+    rays.clear();
     MappingLine xy, yz, zx;
-    xy.build(o[0], o[1], ok[0], ok[1], ck[0], ck[1], planes[0], planes[1]);
-    yz.build(o[1], o[2], ok[1], ok[2], ck[1], ck[2], planes[1], planes[2]);
-    zx.build(o[2], o[0], ok[2], ok[0], ck[2], ck[0], planes[2], planes[0]);
-    std::unordered_map<Segments, std::size_t, SegmentsHash> index;
-    for (std::size_t i = b; i < e; ++i) {
-      const Vec3f& p = ends[order[i].second];
-      const double px = p.x(), py = p.y(), pz = p.z();
-      const Segments s{xy.classify(px, py), yz.classify(py, pz), zx.classify(pz, px)};
-      geometry::RaySetup setup;
-      const bool safe = s.xy >= 0 && s.yz >= 0 && s.zx >= 0 && geometry::setupRay(conv, origin, p, setup) &&
-                        endIsRobust(setup);
-      if (!safe) {
-        ++unsafe;
-        rays.push_back({p, 1});
+    std::vector<Classified> cls;
+#pragma omp for schedule(dynamic, 64) nowait
+    for (std::size_t g = 0; g < groups; ++g) {
+      const std::size_t b = group_begin_[g], e = group_begin_[g + 1];
+      if (e - b < k_min) {
+        for (std::size_t i = b; i < e; ++i) rays.push_back({ends[order_[i].second], 1});
         continue;
       }
-      auto [it, inserted] = index.try_emplace(s, rays.size());
-      if (inserted) {
-        rays.push_back({p, 1});
-      } else {
-        ++rays[it->second].weight;
+      const VoxelKey ck = VoxelKey::fromPacked(order_[b].first);
+      // Alg. 2: three mapping lines, one per 2D sub-space; a ray's segments in the three (Eq. 2.6) name
+      // its region of the mapping plane.
+      xy.build(o[0], o[1], ok[0], ok[1], ck[0], ck[1], planes[0], planes[1]);
+      yz.build(o[1], o[2], ok[1], ok[2], ck[1], ck[2], planes[1], planes[2]);
+      zx.build(o[2], o[0], ok[2], ok[0], ck[2], ck[0], planes[2], planes[0]);
+      cls.clear();
+      for (std::size_t i = b; i < e; ++i) {
+        const std::uint32_t idx = order_[i].second;
+        const Vec3f& p = ends[idx];
+        const double px = p.x(), py = p.y(), pz = p.z();
+        const int s0 = xy.classify(px, py), s1 = yz.classify(py, pz), s2 = zx.classify(pz, px);
+        geometry::RaySetup setup;
+        const bool safe = s0 >= 0 && s1 >= 0 && s2 >= 0 && geometry::setupRay(conv, origin, p, setup) &&
+                          endIsRobust(setup);
+        if (!safe) {
+          // Passes within rounding distance of a grid edge, or ends next to a cell face: its own walk.
+          ++unsafe;
+          rays.push_back({p, 1});
+          continue;
+        }
+        cls.push_back({{s0, s1, s2}, idx});
+      }
+      std::sort(cls.begin(), cls.end());
+      for (std::size_t i = 0; i < cls.size();) {
+        std::size_t j = i + 1;
+        while (j < cls.size() && cls[j].seg[0] == cls[i].seg[0] && cls[j].seg[1] == cls[i].seg[1] &&
+               cls[j].seg[2] == cls[i].seg[2])
+          ++j;
+        rays.push_back({ends[cls[i].index], static_cast<std::uint32_t>(j - i)});
+        i = j;
       }
     }
   }
   std::size_t total = 0;
-  for (const auto& r : per_group) total += r.size();
+  for (const auto& r : per_thread_) total += r.size();
   out.reserve(total);
   SuperRayStats st;
   st.points = ends.size();
   st.unsafe = unsafe;
-  for (const auto& r : per_group)
-    for (const SuperRay& s : r) {
-      out.push_back(s);
-      if (s.weight > 1) {
+  for (const auto& r : per_thread_)
+    for (const SuperRay& sr : r) {
+      out.push_back(sr);
+      if (sr.weight > 1) {
         ++st.super_rays;
-        st.grouped_points += s.weight;
+        st.grouped_points += sr.weight;
       }
     }
   st.rays = out.size();
   if (stats) *stats = st;
-  return out;
 }
 
 }  // namespace densemap::update

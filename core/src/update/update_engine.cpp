@@ -6,6 +6,7 @@
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/culling_region.h"
+#include "densemap/update/ray_tracer.h"
 
 namespace densemap::update {
 
@@ -36,62 +37,6 @@ std::optional<UpdateMethod> parseMethod(std::string_view s) {
 
 UpdateEngine::UpdateEngine(UpdateOptions options) : options_(options) {}
 
-template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
-UpdateEngine::TraceCounters UpdateEngine::traceRaysImpl(const map::OccupancyMap& map, const Vec3f& origin,
-                                                        const std::vector<SuperRay>& rays) {
-  const auto& conv = map.converter();
-  std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
-  map::ScanEvidence& ev = evidence_;
-#pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
-  {
-    map::EvidenceCursor cursor(ev);
-    std::uint64_t visits = 0, useless = 0;
-    geometry::WalkStats ws;
-#pragma omp for schedule(dynamic, 256) nowait
-    for (std::size_t i = 0; i < rays.size(); ++i) {
-      const SuperRay& r = rays[i];
-      geometry::RaySetup setup;
-      if (!geometry::setupRay(conv, origin, r.end, setup)) continue;
-      auto visit = [&](const VoxelKey& k) {
-        ++visits;
-        if constexpr (kCountUnnecessary) useless += map.isFullyFree(k) ? 1 : 0;
-        if constexpr (kCounting) {
-          cursor.addFree(k, r.weight);
-        } else {
-          cursor.markFree(k);
-        }
-      };
-      if constexpr (kBackward) {
-        if constexpr (kRegion) {
-          geometry::walkBackward(setup, [&](const VoxelKey& k) { return cursor.inRegion(k); }, visit, &ws);
-        } else {
-          geometry::walkBackward(setup, [](const VoxelKey&) { return false; }, visit, &ws);
-        }
-      } else {
-        geometry::walkForward(setup, visit);
-      }
-    }
-    traversed += visits;
-    unnecessary += useless;
-    fallbacks += ws.fallbacks;
-  }
-  return {traversed, fallbacks, unnecessary};
-}
-
-template <bool kCountUnnecessary>
-UpdateEngine::TraceCounters UpdateEngine::traceRays(const map::OccupancyMap& map, const Vec3f& origin,
-                                                    const std::vector<SuperRay>& rays, bool counting, bool backward,
-                                                    bool region) {
-  if (counting) {
-    if (!backward) return traceRaysImpl<kCountUnnecessary, true, false, false>(map, origin, rays);
-    return region ? traceRaysImpl<kCountUnnecessary, true, true, true>(map, origin, rays)
-                  : traceRaysImpl<kCountUnnecessary, true, true, false>(map, origin, rays);
-  }
-  if (!backward) return traceRaysImpl<kCountUnnecessary, false, false, false>(map, origin, rays);
-  return region ? traceRaysImpl<kCountUnnecessary, false, true, true>(map, origin, rays)
-                : traceRaysImpl<kCountUnnecessary, false, true, false>(map, origin, rays);
-}
-
 namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
@@ -108,46 +53,67 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   const auto t0 = Clock::now();
   // Ray ends after the range limit, and whether they mark an occupied endpoint. Points that are not finite
   // or whose end leaves the key range are dropped, as OctoMap drops them.
-  std::vector<Vec3f> ends;
-  std::vector<Vec3f> cut_ends;  // rays cut at max range: free only
+  std::vector<Vec3f>& ends = ends_;
+  std::vector<Vec3f>& cut_ends = cut_ends_;  // rays cut at max range: free only
+  ends.clear();
+  cut_ends.clear();
   ends.reserve(points.size());
   VoxelKey lo = origin_key, hi = origin_key;
-  auto grow = [&](const VoxelKey& k) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], k[a]);
-      hi[a] = std::max(hi[a], k[a]);
-    }
-  };
-  for (const Vec3f& p : points) {
+  // Range cut, key range check and bounding box, in parallel; then compacted in input order.
+  const std::size_t n = points.size();
+  clipped_.resize(n);
+  kind_.resize(n);
+  std::uint64_t rejected = 0;
+  int blo[3] = {lo[0], lo[1], lo[2]}, bhi[3] = {hi[0], hi[1], hi[2]};
+#pragma omp parallel for schedule(static) reduction(+ : rejected) reduction(min : blo[:3]) reduction(max : bhi[:3])
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3f& p = points[i];
     VoxelKey k;
     if (!p.allFinite()) {
-      ++st.rejected;
+      ++rejected;
+      kind_[i] = 0;
       continue;
     }
     const geometry::ClippedRay c = geometry::clipRay(origin, p, options_.max_range);
     if (!conv.toKey(c.end, k)) {
-      ++st.rejected;
+      ++rejected;
+      kind_[i] = 0;
       continue;
     }
-    grow(k);
-    (c.hit ? ends : cut_ends).push_back(c.end);
+    for (int a = 0; a < 3; ++a) {
+      blo[a] = std::min<int>(blo[a], k[a]);
+      bhi[a] = std::max<int>(bhi[a], k[a]);
+    }
+    clipped_[i] = c.end;
+    kind_[i] = c.hit ? 1 : 2;
+  }
+  st.rejected = rejected;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = static_cast<geometry::KeyCoord>(blo[a]);
+    hi[a] = static_cast<geometry::KeyCoord>(bhi[a]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (kind_[i] == 1) ends.push_back(clipped_[i]);
+    else if (kind_[i] == 2) cut_ends.push_back(clipped_[i]);
   }
   // Rounding can let OctoMap's walk step one cell past the endpoint's box; pad it.
   for (int a = 0; a < 3; ++a) {
     lo[a] = static_cast<geometry::KeyCoord>(std::max(0, lo[a] - 2));
     hi[a] = static_cast<geometry::KeyCoord>(std::min(0xFFFF, hi[a] + 2));
   }
-  evidence_.reset(lo, hi);
+  evidence_.reset(lo, hi, options_.semantics == UpdateSemantics::kCounting);
   st.prepare_ms = msSince(t0);
   const auto tg = Clock::now();
 
   const bool use_super = options_.method == UpdateMethod::kSuperRays || options_.method == UpdateMethod::kSuperRaysCulling;
   const bool use_culling =
       options_.method == UpdateMethod::kCullingRegion || options_.method == UpdateMethod::kSuperRaysCulling;
-  std::vector<SuperRay> rays;
+  std::vector<SuperRay>& rays = rays_;
+  rays.clear();
   if (use_super) {
     SuperRayStats sst;
-    rays = SuperRayGenerator(options_.super_rays).generate(conv, origin, ends, &sst);
+    generator_.setOptions(options_.super_rays);
+    generator_.generate(conv, origin, ends, rays, &sst);
     st.super_rays = sst.super_rays;
     st.grouped_points = sst.grouped_points;
   } else {
@@ -161,25 +127,51 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
 
   const auto t1 = Clock::now();
   const bool counting = options_.semantics == UpdateSemantics::kCounting;
-  const bool region = use_culling && st.region_cells > 0;
+  TraceOptions to;
+  to.counting = counting;
+  to.backward = use_culling;
+  to.region = use_culling && st.region_cells > 0;
+  to.count_unnecessary = options_.count_unnecessary;
   TraceCounters tc;
-  if (options_.count_unnecessary) {
-    tc = traceRays<true>(map, origin, rays, counting, use_culling, region);
+  auto add = [&](const TraceCounters& c) {
+    tc.traversed += c.traversed;
+    tc.fallbacks += c.fallbacks;
+    tc.unnecessary += c.unnecessary;
+  };
+  if (use_culling && !counting && options_.in_scan_closure && rays.size() > 64) {
+    // Batch semantics: walk a sparse sample first, close the region over what it marked, then let the other
+    // rays stop on entering that closed region (marking a cell twice changes nothing).
+    to.subset = TraceOptions::Subset::kSample;
+    to.sample_every = options_.closure_sample_every;
+    add(traceRays(map, evidence_, origin, rays, to));
+    const auto tcl = Clock::now();
+    st.closed_cells = CullingRegion::buildClosed(origin_key, evidence_).cells;
+    const double closure_ms = msSince(tcl);
+    st.generation_ms += closure_ms;
+    to.subset = TraceOptions::Subset::kRest;
+    to.region = st.closed_cells > 0;
+    to.stop_at_closed = true;
+    add(traceRays(map, evidence_, origin, rays, to));
+    st.trace_ms -= closure_ms;  // reported under generation
   } else {
-    tc = traceRays<false>(map, origin, rays, counting, use_culling, region);
+    add(traceRays(map, evidence_, origin, rays, to));
   }
-  st.trace_ms = msSince(t1);
+  st.trace_ms += msSince(t1);
   const auto ta = Clock::now();
   map::ScanEvidence& ev = evidence_;
   // Occupied endpoints (after the free pass, as in OctoMap; the semantics decide how they combine).
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < ends.size(); ++i) {
-    VoxelKey k;
-    conv.toKey(ends[i], k);
-    if (counting) {
-      ev.addHit(k, 1);
-    } else {
-      ev.markHit(k);
+#pragma omp parallel
+  {
+    map::EvidenceCursor cursor(ev);
+#pragma omp for schedule(static) nowait
+    for (std::size_t i = 0; i < ends.size(); ++i) {
+      VoxelKey k;
+      conv.toKey(ends[i], k);
+      if (counting) {
+        cursor.addHit(k, 1);
+      } else {
+        cursor.markHit(k);
+      }
     }
   }
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.

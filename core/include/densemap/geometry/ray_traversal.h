@@ -84,7 +84,8 @@ void walkForward(const RaySetup& r, const VoxelKey& stop_key, Skip&& skip, Visit
   const int qx = stop_key[0], qy = stop_key[1], qz = stop_key[2];
   const double length = r.length;
   while (true) {
-    // OctoMap's choice of the axis with the smallest tMax, with its tie-breaking.
+    // OctoMap's choice of the axis with the smallest tMax, with its tie-breaking. (Branches beat a
+    // branch-free choice here: speculation overlaps consecutive steps, a select chain serialises them.)
     if (tx < ty) {
       if (tx < tz) {
         kx += sx;
@@ -112,97 +113,102 @@ void walkForward(const RaySetup& r, Visit&& visit) {
   walkForward(r, r.end_key, [](const VoxelKey&) { return false; }, visit);
 }
 
+
+/// How a backward walk ended.
+enum class WalkEnd {
+  kOrigin,    ///< reached the sensor's cell (visited it)
+  kRegion,    ///< entered the culling region: the rest of the ray cannot change the map
+  kStopped,   ///< `stop(key)` held for the next cell (returned in WalkResult::at, not visited)
+  kFallback,  ///< a rounding tie: the rest was walked forward with OctoMap's arithmetic (no stop possible)
+};
+
+struct WalkResult {
+  WalkEnd end;
+  VoxelKey at;  ///< the cell where the walk stopped (kStopped)
+};
+
+/// Walks the same cells as walkForward, but backward: from `start` (the endpoint cell when `start_is_end`,
+/// else a cell on the ray's path, which is not visited) toward the sensor. It ends on entering a cell in
+/// the culling region (Sec. 2.3.5: every cell between there and the sensor is in the region too, so the
+/// rest of the ray cannot change the map), or before a cell for which `stop` holds. The crossing order is
+/// recomputed from the crossing parameters; where two crossings are so close that OctoMap's accumulated
+/// rounding could order them differently, the rest of the ray is walked forward with OctoMap's own
+/// arithmetic, so the visited cells are always exactly OctoMap's.
+template <class InRegion, class Stop, class Visit>
+WalkResult walkBackwardFrom(const RaySetup& r, const VoxelKey& start, bool start_is_end, InRegion&& in_region,
+                            Stop&& stop, Visit&& visit) {
+  if (start == r.origin_key) return {WalkEnd::kOrigin, start};
+  const double length = r.length;
+  const double tol = 1e-9 * (length + 1.0);
+  auto fallback = [&](const VoxelKey& stop_key) {
+    walkForward(r, stop_key, in_region, visit);
+    return WalkResult{WalkEnd::kFallback, stop_key};
+  };
+  int kk[3];
+  double last[3];
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 3; ++i) {
+    const int diff = static_cast<int>(start[i]) - static_cast<int>(r.origin_key[i]);
+    if (r.step[i] == 0) {
+      if (diff != 0) return fallback(start);
+      kk[i] = 0;
+      last[i] = kNone;
+      continue;
+    }
+    kk[i] = diff * r.step[i];
+    if (kk[i] < 0) return fallback(start);
+    if (start_is_end) {
+      // OctoMap reaches the endpoint cell only if exactly kk[i] crossings per axis lie before the ray's end.
+      const double next = r.t_max0[i] + static_cast<double>(kk[i]) * r.t_delta[i];
+      if (!(next > length + tol)) return fallback(start);
+    }
+    last[i] = kk[i] > 0 ? r.t_max0[i] + static_cast<double>(kk[i] - 1) * r.t_delta[i] : kNone;
+    if (start_is_end && kk[i] > 0 && !(last[i] < length - tol)) return fallback(start);
+  }
+  // Scalar state only: indexing arrays by the stepped axis stalls on store forwarding.
+  int kx = kk[0], ky = kk[1], kz = kk[2];
+  int cx = start[0], cy = start[1], cz = start[2];
+  double lx = last[0], ly = last[1], lz = last[2];
+  const int sx = r.step[0], sy = r.step[1], sz = r.step[2];
+  const double dx = r.t_delta[0], dy = r.t_delta[1], dz = r.t_delta[2];
+  auto key = [&] {
+    return VoxelKey{{static_cast<KeyCoord>(cx), static_cast<KeyCoord>(cy), static_cast<KeyCoord>(cz)}};
+  };
+  while ((kx | ky | kz) != 0) {
+    // The cell was entered through the axis whose last crossing came latest; a near tie means OctoMap's
+    // accumulated rounding decides, so finish with its own forward arithmetic.
+    if (lx >= ly && lx >= lz) {
+      if (lx - std::max(ly, lz) < tol) return fallback(key());
+      cx -= sx;
+      lx = --kx > 0 ? lx - dx : kNone;
+    } else if (ly >= lz) {
+      if (ly - std::max(lx, lz) < tol) return fallback(key());
+      cy -= sy;
+      ly = --ky > 0 ? ly - dy : kNone;
+    } else {
+      if (lz - std::max(lx, ly) < tol) return fallback(key());
+      cz -= sz;
+      lz = --kz > 0 ? lz - dz : kNone;
+    }
+    const VoxelKey cur = key();
+    if (in_region(cur)) return {WalkEnd::kRegion, cur};
+    if (stop(cur)) return {WalkEnd::kStopped, cur};
+    visit(cur);
+  }
+  return {WalkEnd::kOrigin, r.origin_key};
+}
+
 /// Counters a walker can report to (statistics only).
 struct WalkStats {
   std::uint64_t fallbacks = 0;  ///< rays whose backward walk met a rounding tie and finished forward
 };
 
-/// Walks the same cells as walkForward, but from the endpoint toward the sensor, and stops as soon as a
-/// cell satisfies `in_region` (Sec. 2.3.5: every cell between there and the sensor is in the culling
-/// region too, so the rest of the ray cannot change the map). The crossing order is recomputed from the
-/// crossing parameters; where two crossings are so close that OctoMap's accumulated rounding could order
-/// them differently, the remaining part of the ray is walked forward with OctoMap's own arithmetic, so the
-/// visited cells are always exactly OctoMap's. Returns the number of visited cells.
+/// The whole ray from its endpoint toward the sensor (see walkBackwardFrom).
 template <class InRegion, class Visit>
-std::uint32_t walkBackward(const RaySetup& r, InRegion&& in_region, Visit&& visit, WalkStats* stats = nullptr) {
-  if (r.origin_key == r.end_key) return 0;
-  const double length = r.length;
-  const double tol = 1e-9 * (length + 1.0);
-  std::uint32_t visited = 0;
-  auto fallback = [&](const VoxelKey& stop_key) {
-    if (stats) ++stats->fallbacks;
-    walkForward(r, stop_key, in_region, [&](const VoxelKey& key) {
-      ++visited;
-      visit(key);
-    });
-    return visited;
-  };
-  int k[3];
-  double last[3];
-  for (int i = 0; i < 3; ++i) {
-    const int diff = static_cast<int>(r.end_key[i]) - static_cast<int>(r.origin_key[i]);
-    if (r.step[i] == 0) {
-      if (diff != 0) return fallback(r.end_key);
-      k[i] = 0;
-      last[i] = -std::numeric_limits<double>::infinity();
-      continue;
-    }
-    k[i] = diff * r.step[i];
-    if (k[i] < 0) return fallback(r.end_key);
-    // OctoMap reaches the endpoint cell only if exactly k[i] crossings per axis lie before the ray's end.
-    const double next = r.t_max0[i] + static_cast<double>(k[i]) * r.t_delta[i];
-    if (!(next > length + tol)) return fallback(r.end_key);
-    if (k[i] > 0) {
-      last[i] = r.t_max0[i] + static_cast<double>(k[i] - 1) * r.t_delta[i];
-      if (!(last[i] < length - tol)) return fallback(r.end_key);
-    } else {
-      last[i] = -std::numeric_limits<double>::infinity();
-    }
-  }
-  int kk[3] = {k[0], k[1], k[2]};
-  int key[3] = {r.end_key[0], r.end_key[1], r.end_key[2]};
-  double l0 = last[0], l1 = last[1], l2 = last[2];
-  constexpr double kNone = -std::numeric_limits<double>::infinity();
-  auto current = [&] {
-    return VoxelKey{{static_cast<KeyCoord>(key[0]), static_cast<KeyCoord>(key[1]), static_cast<KeyCoord>(key[2])}};
-  };
-  while (kk[0] + kk[1] + kk[2] > 0) {
-    // The cell was entered through the axis whose last crossing came latest.
-    int a;
-    double second;
-    if (l0 >= l1) {
-      if (l0 >= l2) {
-        a = 0;
-        second = std::max(l1, l2);
-      } else {
-        a = 2;
-        second = l0;
-      }
-    } else if (l1 >= l2) {
-      a = 1;
-      second = std::max(l0, l2);
-    } else {
-      a = 2;
-      second = l1;
-    }
-    const double la = a == 0 ? l0 : (a == 1 ? l1 : l2);
-    if (la - second < tol) return fallback(current());
-    const int ka = --kk[a];
-    key[a] -= r.step[a];
-    const double nl = ka > 0 ? r.t_max0[a] + static_cast<double>(ka - 1) * r.t_delta[a] : kNone;
-    if (a == 0) {
-      l0 = nl;
-    } else if (a == 1) {
-      l1 = nl;
-    } else {
-      l2 = nl;
-    }
-    const VoxelKey cur = current();
-    if (in_region(cur)) return visited;
-    ++visited;
-    visit(cur);
-  }
-  return visited;
+void walkBackward(const RaySetup& r, InRegion&& in_region, Visit&& visit, WalkStats* stats = nullptr) {
+  if (r.origin_key == r.end_key) return;
+  const WalkResult res = walkBackwardFrom(r, r.end_key, true, in_region, [](const VoxelKey&) { return false; }, visit);
+  if (stats && res.end == WalkEnd::kFallback) ++stats->fallbacks;
 }
 
 }  // namespace densemap::geometry

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include <octomap/OcTree.h>
 
@@ -31,8 +32,17 @@ class OctreeMap : public OccupancyMap {
   /// Builds an OcTree with the same resolution and sensor model (for OctoMap reference runs).
   static std::unique_ptr<octomap::OcTree> makeTree(double resolution, const OccupancyParams& params);
 
+  /// One cell's evidence, as listed for the depth-first tree update.
+  struct Entry {
+    VoxelKey key;
+    std::uint32_t n_free;
+    std::uint32_t n_hit;
+  };
+
  private:
   std::unique_ptr<octomap::OcTree> tree_;
+  std::vector<Entry> entries_;  // per-scan buffer, kept to avoid reallocating
+  std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks_;
 };
 
 /// Node-for-node comparison of two OcTrees: same shape, same log-odds bits in every node.

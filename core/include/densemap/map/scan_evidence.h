@@ -1,6 +1,7 @@
-// Per-scan evidence: how many rays crossed (n_free) and hit (n_hit) each cell during one scan, plus the
-// scan's culling region. Stored in 8^3 blocks addressed through a dense directory over the scan's bounding
-// box, so the hot ray walks find a cell with a few integer operations and no hashing, from many threads.
+// Per-scan evidence: which cells the scan's rays crossed and hit (batch semantics: one flag byte per cell)
+// or how many times (counting semantics: counters), plus the scan's culling region. Stored in 8^3 blocks
+// addressed through a dense directory over the scan's bounding box, so the hot ray walks find a cell with a
+// few integer operations and no hashing, from many threads.
 #pragma once
 
 #include <array>
@@ -9,43 +10,125 @@
 #include <memory>
 #include <mutex>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "densemap/geometry/voxel_key.h"
+#include "densemap/util/huge_page_buffer.h"
 
 namespace densemap::map {
 
 using geometry::VoxelKey;
 
-inline constexpr int kBlockShift = 3;
+inline constexpr int kBlockShift = 4;
 inline constexpr int kBlockSide = 1 << kBlockShift;
 inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 
+/// Voxels inside a block are stored in Morton (z-order) order, x in the lowest bit: listing a block's voxels
+/// by index then visits them in OctoMap's child order, and cells close in space stay close in memory.
+namespace detail {
+constexpr std::array<std::uint16_t, kBlockSide> makeSpread() {
+  std::array<std::uint16_t, kBlockSide> t{};
+  for (int v = 0; v < kBlockSide; ++v) {
+    int r = 0;
+    for (int b = 0; b < kBlockShift; ++b) r |= ((v >> b) & 1) << (3 * b);
+    t[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(r);
+  }
+  return t;
+}
+inline constexpr std::array<std::uint16_t, kBlockSide> kSpread = makeSpread();
+constexpr int compact(int m) {
+  int v = 0;
+  for (int b = 0; b < kBlockShift; ++b) v |= ((m >> (3 * b)) & 1) << b;
+  return v;
+}
+}  // namespace detail
+
 inline int voxelIndexInBlock(const VoxelKey& key) {
   constexpr int m = kBlockSide - 1;
-  return (key[0] & m) | ((key[1] & m) << kBlockShift) | ((key[2] & m) << (2 * kBlockShift));
+  return detail::kSpread[static_cast<std::size_t>(key[0] & m)] | (detail::kSpread[static_cast<std::size_t>(key[1] & m)] << 1) |
+         (detail::kSpread[static_cast<std::size_t>(key[2] & m)] << 2);
 }
 
+/// Offset of voxel index i from its block's lowest voxel.
+constexpr std::array<int, 3> voxelOffsetInBlock(int i) {
+  return {detail::compact(i), detail::compact(i >> 1), detail::compact(i >> 2)};
+}
+
+/// One bit per voxel of a block.
+struct BitPlane {
+  std::array<std::uint64_t, kBlockVoxels / 64> words;
+  bool test(int i) const { return (words[static_cast<std::size_t>(i >> 6)] >> (i & 63)) & 1u; }
+  void set(int i) { words[static_cast<std::size_t>(i >> 6)] |= std::uint64_t{1} << (i & 63); }
+  void reset(int i) { words[static_cast<std::size_t>(i >> 6)] &= ~(std::uint64_t{1} << (i & 63)); }
+  /// Thread-safe set: a plain load first, so already-set bits (the common case) cost no locked operation.
+  [[gnu::always_inline]] void setAtomic(int i) {
+    std::atomic_ref<std::uint64_t> w(words[static_cast<std::size_t>(i >> 6)]);
+    const std::uint64_t bit = std::uint64_t{1} << (i & 63);
+    if (!(w.load(std::memory_order_relaxed) & bit)) w.fetch_or(bit, std::memory_order_relaxed);
+  }
+  [[gnu::always_inline]] bool testAtomic(int i) const {
+    return (std::atomic_ref<const std::uint64_t>(words[static_cast<std::size_t>(i >> 6)]).load(std::memory_order_relaxed) >>
+            (i & 63)) & 1u;
+  }
+  bool any() const {
+    std::uint64_t a = 0;
+    for (auto w : words) a |= w;
+    return a != 0;
+  }
+  void clear() { words.fill(0); }
+};
+
 struct EvidenceBlock {
-  std::array<std::uint32_t, kBlockVoxels> n_free;
-  std::array<std::uint32_t, kBlockVoxels> n_hit;
-  std::array<std::uint64_t, kBlockVoxels / 64> region;   ///< culling-region membership
-  std::array<std::uint64_t, kBlockVoxels / 64> visited;  ///< culling-region search bookkeeping
-  VoxelKey base;                                          ///< key of the block's lowest voxel
+  BitPlane free;     ///< crossed by at least one ray
+  BitPlane hit;      ///< holds at least one endpoint
+  BitPlane region;   ///< in the culling region
+  BitPlane closed;   ///< in the in-scan closed region (batch semantics)
+  BitPlane visited;  ///< culling-region search bookkeeping
+  BitPlane seen;     ///< closed-region search bookkeeping
+  /// Counting semantics only: n_free, n_hit per voxel, kept apart from the bit planes so the planes of
+  /// neighbouring blocks stay close in memory (the hot ray walks touch only the planes).
+  struct Counters {
+    std::array<std::uint32_t, kBlockVoxels> n_free;
+    std::array<std::uint32_t, kBlockVoxels> n_hit;
+  };
+  Counters* counters = nullptr;
+  VoxelKey base;  ///< key of the block's lowest voxel
   bool installed = false;
 
-  void clear() {
-    n_free.fill(0);
-    n_hit.fill(0);
-    region.fill(0);
-    visited.fill(0);
+  void clear(bool clear_counters, bool regions = true) {
+    free.clear();
+    hit.clear();
+    if (regions) {
+      region.clear();
+      closed.clear();
+      visited.clear();
+      seen.clear();
+    }
+    if (clear_counters && counters) {
+      counters->n_free.fill(0);
+      counters->n_hit.fill(0);
+    }
     installed = false;
   }
-  static bool testBit(const std::array<std::uint64_t, kBlockVoxels / 64>& bits, int i) {
-    return (bits[static_cast<std::size_t>(i >> 6)] >> (i & 63)) & 1u;
+  bool hasEvidence() const { return free.any() || hit.any(); }
+  /// Calls f(i) for every voxel with evidence (free or hit), in index order, skipping empty words.
+  template <class F>
+  void forEachEvidenceVoxel(F&& f) const {
+    for (std::size_t w = 0; w < free.words.size(); ++w) {
+      std::uint64_t bits = free.words[w] | hit.words[w];
+      while (bits) {
+        const int b = __builtin_ctzll(bits);
+        bits &= bits - 1;
+        f(static_cast<int>(w * 64) + b);
+      }
+    }
   }
-  static void setBit(std::array<std::uint64_t, kBlockVoxels / 64>& bits, int i) {
-    bits[static_cast<std::size_t>(i >> 6)] |= std::uint64_t{1} << (i & 63);
+  bool hasEvidence(int i) const { return free.test(i) || hit.test(i); }
+  VoxelKey voxelKey(int i) const {
+    const auto d = voxelOffsetInBlock(i);
+    return VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + d[0]), static_cast<geometry::KeyCoord>(base[1] + d[1]),
+                     static_cast<geometry::KeyCoord>(base[2] + d[2])}};
   }
 };
 
@@ -57,13 +140,15 @@ class ScanEvidence {
   ScanEvidence& operator=(const ScanEvidence&) = delete;
 
   /// Starts a new scan whose cells all lie in [min_key, max_key] (inclusive). Cells outside that box can
-  /// still be recorded (they go to a slower overflow list), so a loose box is only a performance matter.
-  void reset(const VoxelKey& min_key, const VoxelKey& max_key);
+  /// still be recorded (they go to a slower overflow map), so a loose box is only a performance matter.
+  /// `counting` selects counters (counting semantics) over flags (batch semantics).
+  void reset(const VoxelKey& min_key, const VoxelKey& max_key, bool counting);
+  bool counting() const { return counting_; }
 
-  /// Thread-safe: adds `w` free traversals (or hits) to a cell.
+  /// Thread-safe: adds `w` free traversals (or hits) to a cell (counting semantics).
   void addFree(const VoxelKey& key, std::uint32_t w);
   void addHit(const VoxelKey& key, std::uint32_t w);
-  /// Thread-safe: marks a cell as crossed / hit at least once (batch semantics: counts saturate at 1).
+  /// Thread-safe: marks a cell as crossed / hit (batch semantics).
   void markFree(const VoxelKey& key);
   void markHit(const VoxelKey& key);
 
@@ -74,32 +159,33 @@ class ScanEvidence {
 
   bool inRegion(const VoxelKey& key) const {
     const EvidenceBlock* b = findBlock(key);
-    return b != nullptr && EvidenceBlock::testBit(b->region, voxelIndexInBlock(key));
+    return b != nullptr && b->region.test(voxelIndexInBlock(key));
   }
   bool insideBox(const VoxelKey& key) const;
 
-  /// Calls f(key, n_free, n_hit) for every cell with evidence; blocks in ascending block order is not
-  /// guaranteed. Not thread-safe against concurrent writers.
+  /// n_free and n_hit of voxel i of a block, under this scan's semantics.
+  std::pair<std::uint32_t, std::uint32_t> counts(const EvidenceBlock& b, int i) const {
+    const auto u = static_cast<std::size_t>(i);
+    if (counting_) return {b.counters->n_free[u], b.counters->n_hit[u]};
+    return {b.free.test(i) ? 1u : 0u, b.hit.test(i) ? 1u : 0u};
+  }
+
+  /// Calls f(key, n_free, n_hit) for every cell with evidence, in no particular order.
   template <class F>
   void forEachCell(F&& f) const {
     forEachBlock([&](const EvidenceBlock& b) {
       for (int i = 0; i < kBlockVoxels; ++i) {
-        const auto nf = b.n_free[static_cast<std::size_t>(i)];
-        const auto nh = b.n_hit[static_cast<std::size_t>(i)];
-        if (nf == 0 && nh == 0) continue;
-        VoxelKey k = b.base;
-        k[0] = static_cast<geometry::KeyCoord>(k[0] + (i & (kBlockSide - 1)));
-        k[1] = static_cast<geometry::KeyCoord>(k[1] + ((i >> kBlockShift) & (kBlockSide - 1)));
-        k[2] = static_cast<geometry::KeyCoord>(k[2] + (i >> (2 * kBlockShift)));
-        f(k, nf, nh);
+        if (!b.hasEvidence(i)) continue;
+        const auto [nf, nh] = counts(b, i);
+        f(b.voxelKey(i), nf, nh);
       }
     });
-    for (const auto& [key, counts] : overflow_) f(key, counts.first, counts.second);
+    for (const auto& [key, c] : overflow_) f(key, c.first, c.second);
   }
 
   template <class F>
   void forEachBlock(F&& f) const {
-    const std::size_t n = std::min<std::size_t>(used_.load(std::memory_order_acquire), capacity());
+    const std::size_t n = blockCount();
     for (std::size_t i = 0; i < n; ++i) {
       const EvidenceBlock& b = blockAt(i);
       if (b.installed) f(b);
@@ -107,24 +193,43 @@ class ScanEvidence {
   }
   std::size_t blockCount() const;
   const EvidenceBlock& blockAt(std::size_t i) const;
+  EvidenceBlock& blockAt(std::size_t i);
+  /// Cells recorded outside the box (normally none).
+  std::size_t overflowCount() const { return overflow_.size(); }
+  template <class F>
+  void forEachOverflowCell(F&& f) const {
+    for (const auto& [key, c] : overflow_) f(key, c.first, c.second);
+  }
 
   /// Batch semantics: a cell both hit and crossed in one scan counts as hit only ("occupied wins").
   void resolveOccupiedWins();
-  /// Cells recorded outside the box (normally none).
-  std::size_t overflowCount() const { return overflow_.size(); }
 
  private:
-  static constexpr std::size_t kChunkBlocks = 256;
-  static constexpr std::size_t kMaxChunks = 16384;
+  static constexpr std::size_t kChunkBlocks = 1024;
+  static constexpr std::size_t kMaxChunks = 4096;
+  /// Blocks live in huge-page mappings (EvidenceBlock is trivially constructible: zeroed memory is a valid
+  /// empty block).
   struct Chunk {
-    std::array<EvidenceBlock, kChunkBlocks> blocks;
+    util::HugePageBuffer memory;
+    EvidenceBlock* blocks;
+    std::unique_ptr<std::array<EvidenceBlock::Counters, kChunkBlocks>> counters;  // counting semantics
+    Chunk();
   };
   std::size_t capacity() const { return kChunkBlocks * kMaxChunks; }
   EvidenceBlock* allocate();
   std::atomic<EvidenceBlock*>* slot(const VoxelKey& key) const;
   void addOverflow(const VoxelKey& key, std::uint32_t nf, std::uint32_t nh, bool saturate);
 
-  int lo_[3] = {0, 0, 0};  // box origin in block units
+  bool counting_ = false;
+  bool counters_dirty_ = false;  // counters of reused blocks may be non-zero
+  bool regions_dirty_ = true;    // region planes of reused blocks may be non-zero
+
+ public:
+  /// Region searches call this before setting region planes, so reset() knows to clear them.
+  void noteRegionsUsed() { regions_dirty_ = true; }
+
+ private:
+  int lo_[3] = {0, 0, 0};        // box origin in block units
   int dims_[3] = {0, 0, 0};
   std::unique_ptr<std::atomic<EvidenceBlock*>[]> directory_;
   std::size_t directory_size_ = 0;
@@ -144,7 +249,7 @@ class EvidenceCursor {
   explicit EvidenceCursor(ScanEvidence& ev) : ev_(ev) {}
 
   /// The block of `key` if it exists (never allocates).
-  EvidenceBlock* find(const VoxelKey& key) {
+  [[gnu::always_inline]] EvidenceBlock* find(const VoxelKey& key) {
     const std::uint64_t bk = blockKey(key);
     if (bk != key_) {
       key_ = bk;
@@ -153,27 +258,46 @@ class EvidenceCursor {
     return block_;
   }
   /// The block of `key`, allocated if needed; null only outside the scan's box.
-  EvidenceBlock* get(const VoxelKey& key) {
+  [[gnu::always_inline]] EvidenceBlock* get(const VoxelKey& key) {
     EvidenceBlock* b = find(key);
     if (b == nullptr) block_ = b = ev_.block(key);
     return b;
   }
-  bool inRegion(const VoxelKey& key) {
+  /// Membership of `key` in a bit plane of its block (false where no block exists).
+  template <BitPlane EvidenceBlock::*kPlane>
+  [[gnu::always_inline]] bool has(const VoxelKey& key) {
     const EvidenceBlock* b = find(key);
-    return b != nullptr && EvidenceBlock::testBit(b->region, voxelIndexInBlock(key));
+    return b != nullptr && (b->*kPlane).testAtomic(voxelIndexInBlock(key));
   }
-  void markFree(const VoxelKey& key) {
+  [[gnu::always_inline]] bool inRegion(const VoxelKey& key) { return has<&EvidenceBlock::region>(key); }
+  [[gnu::always_inline]] void markFree(const VoxelKey& key) {
     if (EvidenceBlock* b = get(key)) {
-      std::atomic_ref<std::uint32_t> c(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))]);
-      if (c.load(std::memory_order_relaxed) == 0) c.store(1, std::memory_order_relaxed);
+      b->free.setAtomic(voxelIndexInBlock(key));
     } else {
       ev_.markFree(key);
     }
   }
-  void addFree(const VoxelKey& key, std::uint32_t w) {
+  [[gnu::always_inline]] void markHit(const VoxelKey& key) {
     if (EvidenceBlock* b = get(key)) {
-      std::atomic_ref<std::uint32_t>(b->n_free[static_cast<std::size_t>(voxelIndexInBlock(key))])
-          .fetch_add(w, std::memory_order_relaxed);
+      b->hit.setAtomic(voxelIndexInBlock(key));
+    } else {
+      ev_.markHit(key);
+    }
+  }
+  [[gnu::always_inline]] void addHit(const VoxelKey& key, std::uint32_t w) {
+    if (EvidenceBlock* b = get(key)) {
+      const int i = voxelIndexInBlock(key);
+      std::atomic_ref<std::uint32_t>(b->counters->n_hit[static_cast<std::size_t>(i)]).fetch_add(w, std::memory_order_relaxed);
+      b->hit.setAtomic(i);
+    } else {
+      ev_.addHit(key, w);
+    }
+  }
+  [[gnu::always_inline]] void addFree(const VoxelKey& key, std::uint32_t w) {
+    if (EvidenceBlock* b = get(key)) {
+      const int i = voxelIndexInBlock(key);
+      std::atomic_ref<std::uint32_t>(b->counters->n_free[static_cast<std::size_t>(i)]).fetch_add(w, std::memory_order_relaxed);
+      b->free.setAtomic(i);
     } else {
       ev_.addFree(key, w);
     }

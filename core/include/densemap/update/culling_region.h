@@ -21,6 +21,11 @@ class CullingRegion {
   /// box in `evidence`, where the membership bits are stored.
   static CullingRegionStats build(const map::OccupancyMap& map, const geometry::VoxelKey& origin_key,
                                   map::ScanEvidence& evidence);
+
+  /// Batch semantics only: the same search (kClosed), admitting cells that are in the culling region or
+  /// already marked free by this scan. A ray entering it may stop, as every cell left on its way to the
+  /// sensor is either clamped free or already marked, and marking twice changes nothing.
+  static CullingRegionStats buildClosed(const geometry::VoxelKey& origin_key, map::ScanEvidence& evidence);
 };
 
 }  // namespace densemap::update

@@ -37,15 +37,27 @@ class SuperRayGenerator {
  public:
   explicit SuperRayGenerator(SuperRayOptions options = {}) : options_(options) {}
 
-  /// Groups rays from `origin` to `ends` (world frame; each end inside the key range). Rays whose ends
-  /// share a cell and a mapping-plane region become one super ray. The output order is deterministic.
+  /// Groups rays from `origin` to `ends` (world frame; each end inside the key range) into `out`
+  /// (cleared first). Rays whose ends share a cell and a mapping-plane region become one super ray. The
+  /// generator keeps its buffers between calls, so steady state allocates nothing.
+  void generate(const geometry::KeyConverter& conv, const Vec3f& origin, const std::vector<Vec3f>& ends,
+                std::vector<SuperRay>& out, SuperRayStats* stats = nullptr);
+  /// Convenience form returning a new vector.
   std::vector<SuperRay> generate(const geometry::KeyConverter& conv, const Vec3f& origin,
-                                 const std::vector<Vec3f>& ends, SuperRayStats* stats = nullptr) const;
+                                 const std::vector<Vec3f>& ends, SuperRayStats* stats = nullptr) {
+    std::vector<SuperRay> out;
+    generate(conv, origin, ends, out, stats);
+    return out;
+  }
 
   const SuperRayOptions& options() const { return options_; }
+  void setOptions(const SuperRayOptions& o) { options_ = o; }
 
  private:
   SuperRayOptions options_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> order_;  // (end cell, point index)
+  std::vector<std::size_t> group_begin_;
+  std::vector<std::vector<SuperRay>> per_thread_;
 };
 
 }  // namespace densemap::update

@@ -34,6 +34,12 @@ struct UpdateOptions {
   /// Rays longer than this are cut there and give no occupied endpoint (OctoMap's maxrange); < 0: unlimited.
   double max_range = -1.0;
   SuperRayOptions super_rays{};
+  /// Culling methods, batch semantics: first walk every `closure_sample_every`-th ray, then grow the
+  /// culling region (Alg. 3's test) over cells fully free OR already marked free by this scan, and let the
+  /// remaining rays stop on entering it. Exact because a batch update marks a cell at most once (our
+  /// extension of Sec. 2.3.5 to the scan's own rays).
+  bool in_scan_closure = true;
+  std::size_t closure_sample_every = 8;
   /// Count traversals of cells that were already fully free (Table 2.3). Costs a map lookup per cell.
   bool count_unnecessary = false;
 };
@@ -47,6 +53,7 @@ struct UpdateStats {
   std::uint64_t traversed = 0;       ///< cells visited by all traversals
   std::uint64_t unnecessary = 0;     ///< visits of already fully free cells (when counted)
   std::uint64_t region_cells = 0;    ///< culling region size
+  std::uint64_t closed_cells = 0;    ///< in-scan closed region size (batch semantics, culling methods)
   std::uint64_t touched_cells = 0;   ///< distinct cells updated
   std::uint64_t fallbacks = 0;       ///< backward walks finished forward because of a rounding tie
   double prepare_ms = 0.0;           ///< validation, range cuts, bounding box (part of update_ms)
@@ -70,19 +77,13 @@ class UpdateEngine {
   void setOptions(const UpdateOptions& o) { options_ = o; }
 
  private:
-  struct TraceCounters {
-    std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
-  };
-  /// Walks every ray and records its free cells in the evidence (the hot loop, specialised per mode).
-  template <bool kCountUnnecessary>
-  TraceCounters traceRays(const map::OccupancyMap& map, const geometry::Vec3f& origin,
-                          const std::vector<SuperRay>& rays, bool counting, bool backward, bool region);
-  template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
-  TraceCounters traceRaysImpl(const map::OccupancyMap& map, const geometry::Vec3f& origin,
-                              const std::vector<SuperRay>& rays);
-
   UpdateOptions options_;
   map::ScanEvidence evidence_;
+  SuperRayGenerator generator_;
+  // Per-scan buffers kept between scans (large, so reallocating them would page-fault every scan).
+  std::vector<geometry::Vec3f> ends_, cut_ends_, clipped_;
+  std::vector<std::uint8_t> kind_;  // per point: 0 rejected, 1 ray with endpoint, 2 ray cut at max range
+  std::vector<SuperRay> rays_;
 };
 
 }  // namespace densemap::update

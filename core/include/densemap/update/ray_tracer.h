@@ -1,0 +1,36 @@
+// Walks a scan's rays and records their free cells in the scan's evidence: the hot loop of every method.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "densemap/map/occupancy_map.h"
+#include "densemap/map/scan_evidence.h"
+#include "densemap/update/super_ray_generator.h"
+
+namespace densemap::update {
+
+struct TraceOptions {
+  bool counting = false;        ///< counting semantics (add weights) instead of batch (mark once)
+  bool backward = false;        ///< walk from the endpoint toward the sensor (needed by the culling region)
+  bool region = false;          ///< the evidence holds a non-empty region to stop at
+  bool stop_at_closed = false;  ///< stop at the in-scan closed region instead of the culling region
+  /// Which rays to walk: all, every `sample_every`-th (from 0), or all the others.
+  enum class Subset { kAll, kSample, kRest } subset = Subset::kAll;
+  std::size_t sample_every = 8;
+  bool count_unnecessary = false;
+};
+
+struct TraceCounters {
+  std::uint64_t traversed = 0;    ///< cell visits
+  std::uint64_t fallbacks = 0;    ///< backward walks finished forward because of a rounding tie
+  std::uint64_t unnecessary = 0;  ///< visits of cells already fully free (when counted)
+};
+
+/// Records the free cells of every ray from `origin` to `rays[i].end` (excluding the end cell) with weight
+/// `rays[i].weight`: forward (baseline, OctoMap's order) or backward from the endpoint, stopping on entering
+/// the culling region held in the evidence.
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& evidence, const geometry::Vec3f& origin,
+                        const std::vector<SuperRay>& rays, const TraceOptions& options);
+
+}  // namespace densemap::update

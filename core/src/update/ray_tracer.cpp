@@ -1,0 +1,91 @@
+#include "densemap/update/ray_tracer.h"
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "densemap/geometry/ray_traversal.h"
+
+namespace densemap::update {
+
+using geometry::RaySetup;
+using geometry::Vec3f;
+using geometry::VoxelKey;
+using geometry::WalkEnd;
+
+namespace {
+
+/// What one thread accumulates while walking.
+template <bool kCountUnnecessary, bool kCounting>
+struct Marker {
+  const map::OccupancyMap& map;
+  map::EvidenceCursor cursor;
+  std::uint64_t visits = 0, useless = 0;
+  Marker(const map::OccupancyMap& m, map::ScanEvidence& ev) : map(m), cursor(ev) {}
+  [[gnu::always_inline]] void operator()(const VoxelKey& k, std::uint32_t weight) {
+    ++visits;
+    if constexpr (kCountUnnecessary) useless += map.isFullyFree(k) ? 1 : 0;
+    if constexpr (kCounting) {
+      cursor.addFree(k, weight);
+    } else {
+      cursor.markFree(k);
+    }
+  }
+};
+
+template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
+TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                        const std::vector<SuperRay>& rays, const TraceOptions& o) {
+  const bool closed = o.stop_at_closed;
+  const std::size_t every = std::max<std::size_t>(o.sample_every, 1);
+  const auto subset = o.subset;
+  const auto& conv = map.converter();
+  std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
+#pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
+  {
+    Marker<kCountUnnecessary, kCounting> mark(map, ev);
+    geometry::WalkStats ws;
+#pragma omp for schedule(dynamic, 256) nowait
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      if (subset != TraceOptions::Subset::kAll && ((i % every == 0) != (subset == TraceOptions::Subset::kSample)))
+        continue;
+      const SuperRay& r = rays[i];
+      RaySetup setup;
+      if (!geometry::setupRay(conv, origin, r.end, setup)) continue;
+      auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
+      if constexpr (kBackward) {
+        if constexpr (kRegion) {
+          geometry::walkBackward(setup, [&](const VoxelKey& k) { return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
+                                                        : mark.cursor.template has<&map::EvidenceBlock::region>(k); }, visit, &ws);
+        } else {
+          geometry::walkBackward(setup, [](const VoxelKey&) { return false; }, visit, &ws);
+        }
+      } else {
+        geometry::walkForward(setup, visit);
+      }
+    }
+    traversed += mark.visits;
+    unnecessary += mark.useless;
+    fallbacks += ws.fallbacks;
+  }
+  return {traversed, fallbacks, unnecessary};
+}
+
+template <bool kCountUnnecessary, bool kCounting>
+TraceCounters dispatch(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                       const std::vector<SuperRay>& rays, const TraceOptions& o) {
+  if (!o.backward) return traceEach<kCountUnnecessary, kCounting, false, false>(map, ev, origin, rays, o);
+  return o.region ? traceEach<kCountUnnecessary, kCounting, true, true>(map, ev, origin, rays, o)
+                  : traceEach<kCountUnnecessary, kCounting, true, false>(map, ev, origin, rays, o);
+}
+
+}  // namespace
+
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                        const std::vector<SuperRay>& rays, const TraceOptions& o) {
+  if (o.count_unnecessary) {
+    return o.counting ? dispatch<true, true>(map, ev, origin, rays, o) : dispatch<true, false>(map, ev, origin, rays, o);
+  }
+  return o.counting ? dispatch<false, true>(map, ev, origin, rays, o) : dispatch<false, false>(map, ev, origin, rays, o);
+}
+
+}  // namespace densemap::update
