@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
         spdlog::error("--output needs --backend octree (.bt/.ot are OctoMap formats)");
         return 2;
       }
-      const bool ok = output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinary(output);
+      const bool ok = output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinaryConst(output);
       if (!ok) {
         spdlog::error("could not write {}: check the directory exists and is writable", output);
         return 1;

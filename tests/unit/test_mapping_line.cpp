@@ -1,2 +1,122 @@
+// The mapping line (Sec. 2.3.1, Alg. 1) on 2D cases small enough to check by hand: the situations of
+// Fig. 2.5 (grid points of each slice's "out" line projected onto the line) and Fig. 2.6 (five rays, three
+// segments, three super rays).
+#include <vector>
+
 #include <gtest/gtest.h>
-TEST(Placeholder, Builds) { SUCCEED(); }
+#include <octomap/OcTree.h>
+
+#include "densemap/update/mapping_line.h"
+#include "densemap/update/super_ray_generator.h"
+
+namespace densemap::update {
+namespace {
+
+using geometry::KeyConverter;
+using geometry::kKeyCenter;
+
+// Resolution 1, origin at (0.5, 0.5) (cell (0, 0)); cell c = [3,4] x [1,2] (keys +3, +1). Processing
+// direction x (the cell is 3 slices away in x, 1 in y). The seed frustum spans slopes 1/7 .. 0.6.
+//  - out line x = 1: frustum covers y in [0.57, 0.80]: no grid point;
+//  - out line x = 2: y in [0.71, 1.40]: grid point (2, 1), slope 0.5 / 1.5 = 1/3;
+//  - out line x = 3: y in [0.86, 2.00]: grid points (3, 1) and (3, 2), slopes 0.2 and 0.6.
+// Segments: [1/7, 0.2) below (3, 1); [0.2, 1/3) between; [1/3, 0.6) above (2, 1).
+struct Fig25 : ::testing::Test {
+  KeyConverter conv{1.0};
+  GridPlanes px{conv, kKeyCenter}, py{conv, kKeyCenter};
+  MappingLine line;
+  void SetUp() override { line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter + 3, kKeyCenter + 1, px, py); }
+};
+
+TEST_F(Fig25, ProjectsTheGridPointsOfEachSlice) {
+  ASSERT_EQ(line.projections().size(), 3u);
+  EXPECT_DOUBLE_EQ(line.projections()[0], 0.2);
+  EXPECT_DOUBLE_EQ(line.projections()[1], 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(line.projections()[2], 0.6);
+  EXPECT_EQ(line.segments(), 4u);
+}
+
+TEST_F(Fig25, ClassifiesRaysBySegment) {
+  EXPECT_EQ(line.classify(3.9, 1.05), 0);  // slope 0.16: passes below (3, 1)
+  EXPECT_EQ(line.classify(3.2, 1.30), 1);  // slope 0.30: between (3, 1) and (2, 1)
+  EXPECT_EQ(line.classify(3.7, 1.20), 1);  // slope 0.22
+  EXPECT_EQ(line.classify(3.5, 1.60), 2);  // slope 0.37: above (2, 1)
+  EXPECT_EQ(line.classify(3.1, 1.90), 2);  // slope 0.54
+}
+
+TEST_F(Fig25, RaysThroughAGridPointAreKeptApart) {
+  // Exactly through (3, 1): slope 0.2. Floating-point rounding decides its cells, so it gets no segment.
+  EXPECT_EQ(line.classify(3.5, 1.1), -1);
+}
+
+TEST_F(Fig25, EachSegmentIsOneTraversalPattern) {
+  // In 3D with z fixed at the cell centre the walk is the 2D one; OctoMap's own ray keys must agree within a
+  // segment and differ between segments.
+  octomap::OcTree tree(1.0);
+  auto cells = [&](double x, double y) {
+    octomap::KeyRay ray;
+    tree.computeRayKeys(octomap::point3d(0.5f, 0.5f, 0.5f), octomap::point3d(float(x), float(y), 0.5f), ray);
+    return std::vector<octomap::OcTreeKey>(ray.begin(), ray.end());
+  };
+  std::vector<std::vector<octomap::OcTreeKey>> pattern(3);
+  for (int i = 1; i < 40; ++i)
+    for (int j = 1; j < 40; ++j) {
+      const double x = 3.0 + i / 40.0, y = 1.0 + j / 40.0;
+      const int s = line.classify(x, y);
+      if (s < 0) continue;
+      ASSERT_GE(s, 0);
+      ASSERT_LE(s, 2);
+      const auto c = cells(x, y);
+      if (pattern[static_cast<std::size_t>(s)].empty()) pattern[static_cast<std::size_t>(s)] = c;
+      EXPECT_EQ(pattern[static_cast<std::size_t>(s)], c) << "segment " << s << " ray to " << x << "," << y;
+    }
+  EXPECT_NE(pattern[0], pattern[1]);
+  EXPECT_NE(pattern[1], pattern[2]);
+  EXPECT_NE(pattern[0], pattern[2]);
+  // Below (3, 1) the ray runs along row 0 to x = 3, then steps up into the cell.
+  EXPECT_EQ(pattern[0].size(), 4u);
+}
+
+TEST(MappingLine, Fig26FiveRaysBecomeThreeSuperRays) {
+  KeyConverter conv(1.0);
+  const geometry::Vec3f origin(0.5f, 0.5f, 0.5f);
+  const std::vector<geometry::Vec3f> ends = {{3.9f, 1.05f, 0.5f}, {3.2f, 1.3f, 0.5f}, {3.5f, 1.6f, 0.5f},
+                                             {3.7f, 1.2f, 0.5f}, {3.1f, 1.9f, 0.5f}};
+  SuperRayGenerator gen(SuperRayOptions{2});
+  std::vector<std::uint32_t> assignment;
+  std::vector<SuperRay> rays;
+  SuperRayStats st;
+  gen.generate(conv, origin, ends, rays, &st, &assignment);
+  ASSERT_EQ(rays.size(), 3u);
+  std::vector<std::uint32_t> weights;
+  for (const auto& r : rays) weights.push_back(r.weight);
+  std::sort(weights.begin(), weights.end());
+  EXPECT_EQ(weights, (std::vector<std::uint32_t>{1, 2, 2}));
+  EXPECT_EQ(assignment[1], assignment[3]);  // both in [0.2, 1/3)
+  EXPECT_EQ(assignment[2], assignment[4]);  // both in [1/3, 0.6)
+  EXPECT_NE(assignment[0], assignment[1]);
+  EXPECT_NE(assignment[1], assignment[2]);
+  EXPECT_EQ(st.super_rays, 2u);
+}
+
+TEST(MappingLine, SameCellAsOriginIsOneSegment) {
+  KeyConverter conv(1.0);
+  GridPlanes p(conv, kKeyCenter);
+  MappingLine line;
+  line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter, kKeyCenter, p, p);
+  EXPECT_EQ(line.segments(), 1u);
+  EXPECT_EQ(line.classify(0.9, 0.1), 0);
+}
+
+TEST(MappingLine, ProcessingAxisFollowsTheLargerOffset) {
+  // Cell mostly along y: the line must be built along y (slopes x/y stay bounded).
+  KeyConverter conv(1.0);
+  GridPlanes p(conv, kKeyCenter);
+  MappingLine line;
+  line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter + 1, kKeyCenter + 3, p, p);
+  ASSERT_EQ(line.projections().size(), 3u);  // the mirror image of Fig25
+  EXPECT_DOUBLE_EQ(line.projections()[1], 1.0 / 3.0);
+}
+
+}  // namespace
+}  // namespace densemap::update

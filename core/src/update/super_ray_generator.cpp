@@ -45,7 +45,8 @@ struct Classified {
 }  // namespace
 
 void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
-                                 const std::vector<Vec3f>& ends, std::vector<SuperRay>& out, SuperRayStats* stats) {
+                                 const std::vector<Vec3f>& ends, std::vector<SuperRay>& out, SuperRayStats* stats,
+                                 std::vector<std::uint32_t>* assignment) {
   out.clear();
   VoxelKey ok;
   if (!conv.toKey(origin, ok)) return;
@@ -73,16 +74,25 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
 #pragma omp parallel reduction(+ : unsafe)
   {
 #pragma omp single
-    per_thread_.resize(static_cast<std::size_t>(omp_get_num_threads()));
+    {
+      per_thread_.resize(static_cast<std::size_t>(omp_get_num_threads()));
+      per_thread_first_.resize(per_thread_.size());
+    }
     auto& rays = per_thread_[static_cast<std::size_t>(omp_get_thread_num())];
+    auto& first = per_thread_first_[static_cast<std::size_t>(omp_get_thread_num())];
     rays.clear();
+    first.clear();
+    const bool track = assignment != nullptr;
     MappingLine xy, yz, zx;
     std::vector<Classified> cls;
 #pragma omp for schedule(dynamic, 64) nowait
     for (std::size_t g = 0; g < groups; ++g) {
       const std::size_t b = group_begin_[g], e = group_begin_[g + 1];
       if (e - b < k_min) {
-        for (std::size_t i = b; i < e; ++i) rays.push_back({ends[order_[i].second], 1});
+        for (std::size_t i = b; i < e; ++i) {
+          rays.push_back({ends[order_[i].second], 1});
+          if (track) first.push_back(order_[i].second);
+        }
         continue;
       }
       const VoxelKey ck = VoxelKey::fromPacked(order_[b].first);
@@ -104,6 +114,7 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
           // Passes within rounding distance of a grid edge, or ends next to a cell face: its own walk.
           ++unsafe;
           rays.push_back({p, 1});
+          if (track) first.push_back(idx);
           continue;
         }
         cls.push_back({{s0, s1, s2}, idx});
@@ -115,7 +126,31 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
                cls[j].seg[2] == cls[i].seg[2])
           ++j;
         rays.push_back({ends[cls[i].index], static_cast<std::uint32_t>(j - i)});
+        if (track) {
+          // Members after the first are recorded as (member, -1 - ray) pairs resolved below.
+          first.push_back(cls[i].index);
+          for (std::size_t m = i + 1; m < j; ++m) {
+            first.push_back(cls[m].index);
+            first.push_back(~std::uint32_t{0});
+          }
+        }
         i = j;
+      }
+    }
+  }
+  if (assignment != nullptr) {
+    // Walk each thread's records in step with its rays: a ray's first member, then (member, marker) pairs.
+    assignment->assign(ends.size(), ~std::uint32_t{0});
+    std::uint32_t ray = 0;
+    for (std::size_t t = 0; t < per_thread_.size(); ++t) {
+      const auto& f = per_thread_first_[t];
+      std::size_t pos = 0;
+      for (std::size_t r = 0; r < per_thread_[t].size(); ++r, ++ray) {
+        (*assignment)[f[pos++]] = ray;
+        while (pos + 1 < f.size() && f[pos + 1] == ~std::uint32_t{0}) {
+          (*assignment)[f[pos]] = ray;
+          pos += 2;
+        }
       }
     }
   }

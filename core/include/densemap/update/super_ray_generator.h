@@ -40,8 +40,10 @@ class SuperRayGenerator {
   /// Groups rays from `origin` to `ends` (world frame; each end inside the key range) into `out`
   /// (cleared first). Rays whose ends share a cell and a mapping-plane region become one super ray. The
   /// generator keeps its buffers between calls, so steady state allocates nothing.
+  /// If `assignment` is given, it receives for every end the index in `out` of the super ray standing for it.
   void generate(const geometry::KeyConverter& conv, const Vec3f& origin, const std::vector<Vec3f>& ends,
-                std::vector<SuperRay>& out, SuperRayStats* stats = nullptr);
+                std::vector<SuperRay>& out, SuperRayStats* stats = nullptr,
+                std::vector<std::uint32_t>* assignment = nullptr);
   /// Convenience form returning a new vector.
   std::vector<SuperRay> generate(const geometry::KeyConverter& conv, const Vec3f& origin,
                                  const std::vector<Vec3f>& ends, SuperRayStats* stats = nullptr) {
@@ -58,6 +60,7 @@ class SuperRayGenerator {
   std::vector<std::pair<std::uint64_t, std::uint32_t>> order_;  // (end cell, point index)
   std::vector<std::size_t> group_begin_;
   std::vector<std::vector<SuperRay>> per_thread_;
+  std::vector<std::vector<std::uint32_t>> per_thread_first_;  // first member of each ray (for assignment)
 };
 
 }  // namespace densemap::update
