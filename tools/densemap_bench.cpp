@@ -7,10 +7,12 @@
 #include <memory>
 #include <sstream>
 
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include <omp.h>
+
 #include <octomap/octomap.h>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "common/cli_common.h"
 #include "densemap/map/grid_map.h"
@@ -33,7 +35,8 @@ std::vector<std::string> splitList(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream ss(s);
   std::string item;
-  while (std::getline(ss, item, ',')) if (!item.empty()) out.push_back(item);
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
   return out;
 }
 
@@ -51,15 +54,21 @@ struct OctomapRun {
 };
 
 OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, double max_range) {
+  // OctoMap's computeUpdate, instantiated from its headers in this OpenMP translation unit, calls
+  // omp_set_num_threads(keyrays.size()), and the non-OpenMP Debian library sizes keyrays to 1: restore the
+  // thread count afterwards, or every later run would be single-threaded.
+  const int threads = omp_get_max_threads();
   OctomapRun r;
   r.tree = map::OctreeMap::makeTree(res, {});
   for (const auto& s : scans) {
     const octomap::Pointcloud pc = toOctomap(s.points);  // conversion not timed
     const auto t = Clock::now();
-    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false, false);
+    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false,
+                             false);
     r.scan_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t).count());
     r.total_ms += r.scan_ms.back();
   }
+  omp_set_num_threads(threads);
   return r;
 }
 
@@ -114,14 +123,18 @@ std::size_t realtimeUsed(const std::vector<double>& scan_ms, double hz) {
 bool identicalMaps(const map::OccupancyMap& a, const map::OccupancyMap& b, std::string* why) {
   if (a.backendName() == "grid")
     return static_cast<const map::GridMap&>(a).identical(static_cast<const map::GridMap&>(b), why);
-  return map::identicalTrees(static_cast<const map::OctreeMap&>(a).tree(), static_cast<const map::OctreeMap&>(b).tree(), why);
+  return map::identicalTrees(static_cast<const map::OctreeMap&>(a).tree(),
+                             static_cast<const map::OctreeMap&>(b).tree(), why);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"densemap-bench: update speed of baseline, super rays, culling region and both, beside OctoMap (Table 2.4)"};
-  std::string source = "sim", scans_text, resolutions = "0.2", backends = "grid,octree", methods = "all", semantics = "batch";
+  CLI::App app{
+      "densemap-bench: update speed of baseline, super rays, culling region and both, beside OctoMap (Table "
+      "2.4)"};
+  std::string source = "sim", scans_text, resolutions = "0.2", backends = "grid,octree", methods = "all",
+              semantics = "batch";
   std::string log_level = "warn";
   double max_range = -1.0, realtime = 0.0;
   int repeat = 1, threads = 0;
@@ -130,16 +143,26 @@ int main(int argc, char** argv) {
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
   app.add_option("--source", source, "scan source (see densemap-map --help)")->capture_default_str();
   app.add_option("--scans", scans_text, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--resolution", resolutions, "voxel size(s) in metres, comma separated")->capture_default_str();
+  app.add_option("--resolution", resolutions, "voxel size(s) in metres, comma separated")
+      ->capture_default_str();
   app.add_option("--backend", backends, "grid, octree, or both comma separated")->capture_default_str();
-  app.add_option("--method", methods, "all, or a comma list of baseline, superrays, culling, superrays+culling")->capture_default_str();
-  app.add_option("--semantics", semantics, "batch or counting")->capture_default_str()->check(CLI::IsMember({"batch", "counting"}));
+  app.add_option("--method", methods,
+                 "all, or a comma list of baseline, superrays, culling, superrays+culling")
+      ->capture_default_str();
+  app.add_option("--semantics", semantics, "batch or counting")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"batch", "counting"}));
   app.add_option("--max-range", max_range, "cut rays at this range (<0: unlimited)")->capture_default_str();
-  app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")->capture_default_str();
-  app.add_option("--repeat", repeat, "runs per configuration; medians and median ratios are reported")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--realtime", realtime, "also simulate scans arriving at this rate (Hz), dropping those arriving while busy");
+  app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
+      ->capture_default_str();
+  app.add_option("--repeat", repeat, "runs per configuration; medians and median ratios are reported")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--realtime", realtime,
+                 "also simulate scans arriving at this rate (Hz), dropping those arriving while busy");
   app.add_flag("--json", json, "one JSON object per line instead of a table");
-  app.add_flag("--no-unnecessary", no_unnecessary, "skip the extra pass that counts unnecessary traversals (Table 2.3)");
+  app.add_flag("--no-unnecessary", no_unnecessary,
+               "skip the extra pass that counts unnecessary traversals (Table 2.3)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -154,7 +177,9 @@ int main(int argc, char** argv) {
     } else {
       for (const auto& m : splitList(methods)) {
         auto pm = update::parseMethod(m);
-        if (!pm) throw std::invalid_argument("unknown method '" + m + "' (baseline, superrays, culling, superrays+culling)");
+        if (!pm)
+          throw std::invalid_argument("unknown method '" + m +
+                                      "' (baseline, superrays, culling, superrays+culling)");
         method_list.push_back(*pm);
       }
     }
@@ -163,7 +188,8 @@ int main(int argc, char** argv) {
     method_list.erase(std::unique(method_list.begin(), method_list.end()), method_list.end());
     std::vector<std::string> backend_list = splitList(backends);
     for (const auto& b : backend_list)
-      if (b != "grid" && b != "octree") throw std::invalid_argument("unknown backend '" + b + "' (grid, octree)");
+      if (b != "grid" && b != "octree")
+        throw std::invalid_argument("unknown backend '" + b + "' (grid, octree)");
     std::vector<double> res_list;
     for (const auto& r : splitList(resolutions)) res_list.push_back(std::stod(r));
 
@@ -174,8 +200,11 @@ int main(int argc, char** argv) {
     for (const auto& s : scans) points += s.points.size();
     const double n = static_cast<double>(scans.size());
     if (!json) {
-      std::printf("densemap-bench: %s, scans %zu:%zu (%zu points), %s semantics, max range %g, %d threads, %d repeat(s)\n",
-                  src->describe().c_str(), range.first, range.last, points, semantics.c_str(), max_range, used_threads, repeat);
+      std::printf(
+          "densemap-bench: %s, scans %zu:%zu (%zu points), %s semantics, max range %g, %d threads, %d "
+          "repeat(s)\n",
+          src->describe().c_str(), range.first, range.last, points, semantics.c_str(), max_range,
+          used_threads, repeat);
     }
     for (double res : res_list) {
       std::vector<double> octo_ms;
@@ -198,7 +227,8 @@ int main(int argc, char** argv) {
         }
         for (const auto& backend : backend_list) {
           std::unique_ptr<map::OccupancyMap> baseline_map;
-          if (rep == 0 && std::find(method_list.begin(), method_list.end(), update::UpdateMethod::kBaseline) == method_list.end()) {
+          if (rep == 0 && std::find(method_list.begin(), method_list.end(),
+                                    update::UpdateMethod::kBaseline) == method_list.end()) {
             update::UpdateOptions bo;
             bo.method = update::UpdateMethod::kBaseline;
             bo.semantics = sem;
@@ -226,7 +256,8 @@ int main(int argc, char** argv) {
               std::string why;
               bool same;
               if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
-                same = map::identicalTrees(static_cast<map::OctreeMap&>(r.map ? *r.map : *baseline_map).tree(), *reference, &why);
+                same = map::identicalTrees(
+                    static_cast<map::OctreeMap&>(r.map ? *r.map : *baseline_map).tree(), *reference, &why);
               } else {
                 same = identicalMaps(r.map ? *r.map : *baseline_map, *baseline_map, &why);
               }
@@ -251,43 +282,71 @@ int main(int argc, char** argv) {
       }
       const double octo = median(octo_ms);
       if (json) {
-        nlohmann::json j = {{"method", "octomap"}, {"backend", "octomap"}, {"semantics", "batch"}, {"resolution", res},
-                            {"scans", scans.size()}, {"points", points}, {"fps", 1000.0 * n / octo},
-                            {"proc_ms", 0.0}, {"update_ms", octo / n}, {"identical", true}, {"speedup_vs_octomap", 1.0},
-                            {"threads", 1}, {"repeat", repeat}};
+        nlohmann::json j = {
+            {"method", "octomap"},   {"backend", "octomap"}, {"semantics", "batch"},      {"resolution", res},
+            {"scans", scans.size()}, {"points", points},     {"fps", 1000.0 * n / octo},  {"proc_ms", 0.0},
+            {"update_ms", octo / n}, {"identical", true},    {"speedup_vs_octomap", 1.0}, {"threads", 1},
+            {"repeat", repeat}};
         if (realtime > 0) j["realtime_used"] = realtimeUsed(octo_scan_ms, realtime);
         std::printf("%s\n", j.dump().c_str());
       } else {
-        std::printf("\nresolution %.2f m: OctoMap insertPointCloud %.1f ms/scan (%.2f fps)%s\n", res, octo / n, 1000.0 * n / octo,
-                    realtime > 0 ? (" realtime used " + std::to_string(realtimeUsed(octo_scan_ms, realtime)) + "/" + std::to_string(scans.size())).c_str() : "");
-        std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps", "proc ms",
-                    "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary", "identical", realtime > 0 ? "realtime" : "");
+        std::printf("\nresolution %.2f m: OctoMap insertPointCloud %.1f ms/scan (%.2f fps)%s\n", res,
+                    octo / n, 1000.0 * n / octo,
+                    realtime > 0 ? (" realtime used " + std::to_string(realtimeUsed(octo_scan_ms, realtime)) +
+                                    "/" + std::to_string(scans.size()))
+                                       .c_str()
+                                 : "");
+        std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps",
+                    "proc ms", "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary",
+                    "identical", realtime > 0 ? "realtime" : "");
       }
       for (const auto& backend : backend_list)
         for (auto m : method_list) {
           const Acc& a = acc[{backend, m}];
           const double total = median(a.total_ms);
-          const double ppr = a.stats.rays ? static_cast<double>(a.stats.points) / static_cast<double>(a.stats.rays) : 0.0;
-          if (!a.identical) spdlog::error("{} {} map differs from its reference: {}", backend, update::toString(m), a.why);
+          const double ppr =
+              a.stats.rays ? static_cast<double>(a.stats.points) / static_cast<double>(a.stats.rays) : 0.0;
+          if (!a.identical)
+            spdlog::error("{} {} map differs from its reference: {}", backend, update::toString(m), a.why);
           if (json) {
-            nlohmann::json j = {{"method", update::toString(m)}, {"backend", backend}, {"semantics", semantics},
-                                {"resolution", res}, {"scans", scans.size()}, {"points", points},
-                                {"fps", 1000.0 * n / total}, {"proc_ms", median(a.proc_ms) / n},
-                                {"update_ms", median(a.update_ms) / n}, {"traversed", a.stats.traversed},
-                                {"rays", a.stats.rays}, {"super_rays", a.stats.super_rays},
-                                {"points_per_ray", ppr}, {"region_cells", a.stats.region_cells},
-                                {"identical", a.identical}, {"speedup_vs_octomap", median(a.ratio)},
-                                {"octomap_ms", octo / n}, {"threads", used_threads}, {"repeat", repeat}};
+            nlohmann::json j = {
+                {"method", update::toString(m)},
+                {"backend", backend},
+                {"semantics", semantics},
+                {"resolution", res},
+                {"scans", scans.size()},
+                {"points", points},
+                {"fps", 1000.0 * n / total},
+                {"proc_ms", median(a.proc_ms) / n},
+                {"update_ms", median(a.update_ms) / n},
+                {"traversed", a.stats.traversed},
+                {"rays", a.stats.rays},
+                {"super_rays", a.stats.super_rays},
+                {"points_per_ray", ppr},
+                {"points_per_super_ray", a.stats.super_rays ? static_cast<double>(a.stats.grouped_points) /
+                                                                  static_cast<double>(a.stats.super_rays)
+                                                            : 0.0},
+                {"region_cells", a.stats.region_cells},
+                {"identical", a.identical},
+                {"speedup_vs_octomap", median(a.ratio)},
+                {"octomap_ms", octo / n},
+                {"threads", used_threads},
+                {"repeat", repeat}};
             if (!no_unnecessary) j["unnecessary"] = a.stats.unnecessary;
             if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
             std::printf("%s\n", j.dump().c_str());
           } else {
-            std::printf("  %-7s %-18s %8.2f %9.1f %10.1f %7.2fx %12llu %9llu %8.2f %12s %9s %s\n", backend.c_str(),
-                        std::string(update::toString(m)).c_str(), 1000.0 * n / total, median(a.proc_ms) / n,
-                        median(a.update_ms) / n, median(a.ratio), static_cast<unsigned long long>(a.stats.traversed),
-                        static_cast<unsigned long long>(a.stats.rays), ppr,
-                        no_unnecessary ? "-" : std::to_string(a.stats.unnecessary).c_str(), a.identical ? "yes" : "NO",
-                        realtime > 0 ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" + std::to_string(scans.size())).c_str() : "");
+            std::printf(
+                "  %-7s %-18s %8.2f %9.1f %10.1f %7.2fx %12llu %9llu %8.2f %12s %9s %s\n", backend.c_str(),
+                std::string(update::toString(m)).c_str(), 1000.0 * n / total, median(a.proc_ms) / n,
+                median(a.update_ms) / n, median(a.ratio), static_cast<unsigned long long>(a.stats.traversed),
+                static_cast<unsigned long long>(a.stats.rays), ppr,
+                no_unnecessary ? "-" : std::to_string(a.stats.unnecessary).c_str(),
+                a.identical ? "yes" : "NO",
+                realtime > 0
+                    ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" + std::to_string(scans.size()))
+                          .c_str()
+                    : "");
           }
         }
       bool all_identical = true;

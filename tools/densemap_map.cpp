@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <memory>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "common/cli_common.h"
 #include "densemap/map/grid_map.h"
@@ -14,25 +14,48 @@
 using namespace densemap;
 
 int main(int argc, char** argv) {
-  CLI::App app{"densemap-map: build an occupancy map from scans (exact log-odds map, super rays + culling region)"};
+  CLI::App app{
+      "densemap-map: build an occupancy map from scans (exact log-odds map, super rays + culling region)"};
   std::string source = "sim", scans, backend = "octree", method = "superrays+culling", semantics = "batch";
   std::string output, log_level = "info";
   double resolution = 0.2, max_range = -1.0;
   int threads = 0;
   unsigned threshold = 20;
   std::size_t closure_every = 8;
+  map::OccupancyParams params;
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
-  app.add_option("--source", source, "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or .graph")->capture_default_str();
+  app.add_option("--source", source,
+                 "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD "
+                 "directory or .graph")
+      ->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--resolution", resolution, "voxel size in metres")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--backend", backend, "grid or octree")->capture_default_str()->check(CLI::IsMember({"grid", "octree"}));
-  app.add_option("--method", method, "baseline, superrays, culling or superrays+culling")->capture_default_str()
+  app.add_option("--resolution", resolution, "voxel size in metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--backend", backend, "grid or octree")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"grid", "octree"}));
+  app.add_option("--method", method, "baseline, superrays, culling or superrays+culling")
+      ->capture_default_str()
       ->check(CLI::IsMember({"baseline", "superrays", "culling", "superrays+culling"}));
-  app.add_option("--semantics", semantics, "batch (OctoMap insertPointCloud) or counting (Sec. 2.3.4)")->capture_default_str()
+  app.add_option("--semantics", semantics, "batch (OctoMap insertPointCloud) or counting (Sec. 2.3.4)")
+      ->capture_default_str()
       ->check(CLI::IsMember({"batch", "counting"}));
-  app.add_option("--max-range", max_range, "cut rays at this range in metres (<0: unlimited)")->capture_default_str();
-  app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")->capture_default_str();
-  app.add_option("--closure-sample", closure_every, "culling + batch: walk every N-th ray first, then close the region over its marks (0: off)")->capture_default_str();
+  app.add_option("--max-range", max_range, "cut rays at this range in metres (<0: unlimited)")
+      ->capture_default_str();
+  app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
+      ->capture_default_str();
+  app.add_option("--prob-hit", params.prob_hit, "P(occupied) of a cell holding an endpoint")
+      ->capture_default_str();
+  app.add_option("--prob-miss", params.prob_miss, "P(occupied) of a cell a ray crosses")
+      ->capture_default_str();
+  app.add_option("--clamp-min", params.clamp_min, "lower clamping probability (fully free)")
+      ->capture_default_str();
+  app.add_option("--clamp-max", params.clamp_max, "upper clamping probability (fully occupied)")
+      ->capture_default_str();
+  app.add_option("--closure-sample", closure_every,
+                 "culling + batch: walk every N-th ray first, then close the region over its marks (0: off)")
+      ->capture_default_str();
   app.add_option("--output", output, "save the map: .bt or .ot (octree backend)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
@@ -41,6 +64,10 @@ int main(int argc, char** argv) {
   const int used_threads = cli::setThreads(threads);
 
   try {
+    if (const std::string bad = params.validate(); !bad.empty()) {
+      spdlog::error("invalid sensor model: {} (defaults: hit 0.7, miss 0.4, clamping 0.1192..0.971)", bad);
+      return 2;
+    }
     auto src = io::openSource(source);
     const auto range = cli::parseScanRange(scans, src->size());
     spdlog::info("source: {}", src->describe());
@@ -53,9 +80,9 @@ int main(int argc, char** argv) {
     opt.closure_sample_every = closure_every;
     std::unique_ptr<map::OccupancyMap> m;
     if (backend == "grid") {
-      m = std::make_unique<map::GridMap>(resolution);
+      m = std::make_unique<map::GridMap>(resolution, params);
     } else {
-      m = std::make_unique<map::OctreeMap>(resolution);
+      m = std::make_unique<map::OctreeMap>(resolution, params);
     }
     update::UpdateEngine engine(opt);
     update::UpdateStats total;
@@ -87,29 +114,34 @@ int main(int argc, char** argv) {
     m->forEachCell([&](const geometry::VoxelKey&, float v) { (v > occ ? occupied : free_cells)++; });
     std::printf("densemap-map summary\n");
     std::printf("  source          %s\n", src->describe().c_str());
-    std::printf("  scans           %zu mapped, %zu rejected (range %zu:%zu)\n", done, rejected_scans, range.first, range.last);
+    std::printf("  scans           %zu mapped, %zu rejected (range %zu:%zu)\n", done, rejected_scans,
+                range.first, range.last);
     std::printf("  points          %llu (%llu rejected: non-finite or out of key range)\n",
-                static_cast<unsigned long long>(total.points), static_cast<unsigned long long>(total.rejected));
-    std::printf("  map             %s, %.3f m, %s semantics, method %s, %d threads\n", backend.c_str(), resolution,
-                semantics.c_str(), method.c_str(), used_threads);
+                static_cast<unsigned long long>(total.points),
+                static_cast<unsigned long long>(total.rejected));
+    std::printf("  map             %s, %.3f m, %s semantics, method %s, %d threads\n", backend.c_str(),
+                resolution, semantics.c_str(), method.c_str(), used_threads);
     std::printf("  time            %.1f ms/scan (generation %.1f + update %.1f), %.1f scans/s\n",
                 done ? total.totalMs() / static_cast<double>(done) : 0.0,
                 done ? total.generation_ms / static_cast<double>(done) : 0.0,
                 done ? total.update_ms / static_cast<double>(done) : 0.0,
                 total.totalMs() > 0 ? 1000.0 * static_cast<double>(done) / total.totalMs() : 0.0);
-    std::printf("  phases          prepare %.1f, trace %.1f, apply %.1f ms/scan\n", total.prepare_ms / std::max<double>(1, done),
-                total.trace_ms / std::max<double>(1, done), total.apply_ms / std::max<double>(1, done));
-    std::printf("  rays            %llu traversals, %llu cells traversed\n", static_cast<unsigned long long>(total.rays),
+    std::printf("  phases          prepare %.1f, trace %.1f, apply %.1f ms/scan\n",
+                total.prepare_ms / std::max<double>(1, done), total.trace_ms / std::max<double>(1, done),
+                total.apply_ms / std::max<double>(1, done));
+    std::printf("  rays            %llu traversals, %llu cells traversed\n",
+                static_cast<unsigned long long>(total.rays),
                 static_cast<unsigned long long>(total.traversed));
-    std::printf("  cells           %zu known: %zu occupied, %zu free; %.1f MB\n", occupied + free_cells, occupied,
-                free_cells, static_cast<double>(m->memoryBytes()) / 1e6);
+    std::printf("  cells           %zu known: %zu occupied, %zu free; %.1f MB\n", occupied + free_cells,
+                occupied, free_cells, static_cast<double>(m->memoryBytes()) / 1e6);
     if (!output.empty()) {
       auto* om = dynamic_cast<map::OctreeMap*>(m.get());
       if (om == nullptr) {
         spdlog::error("--output needs --backend octree (.bt/.ot are OctoMap formats)");
         return 2;
       }
-      const bool ok = output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinaryConst(output);
+      const bool ok =
+          output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinaryConst(output);
       if (!ok) {
         spdlog::error("could not write {}: check the directory exists and is writable", output);
         return 1;

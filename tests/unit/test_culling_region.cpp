@@ -72,7 +72,8 @@ TEST_F(CullingFixture, RegionIsFullyFreeAndClosedTowardTheSensor) {
     for (int i = 0; i < map::kBlockVoxels; i += 7) {
       if (!b.region.test(i)) continue;
       geometry::RaySetup r;
-      ASSERT_TRUE(geometry::setupRay(grid.converter(), next.origin(), grid.converter().toCoord(b.voxelKey(i)), r));
+      ASSERT_TRUE(
+          geometry::setupRay(grid.converter(), next.origin(), grid.converter().toCoord(b.voxelKey(i)), r));
       geometry::walkForward(r, [&](const VoxelKey& k) { EXPECT_TRUE(ev.inRegion(k)); });
     }
   });

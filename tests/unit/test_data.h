@@ -18,11 +18,12 @@ inline std::string dataDir() {
 
 inline bool haveData(const std::string& sub) { return std::filesystem::exists(dataDir() + "/" + sub); }
 
-#define DENSEMAP_REQUIRE_DATA(sub)                                                                       \
-  do {                                                                                                  \
-    if (!::densemap::test::haveData(sub))                                                               \
-      GTEST_SKIP() << "real data not found at " << ::densemap::test::dataDir() << "/" << (sub)           \
-                   << " (clone next to ../shared or set DENSEMAP_DATA_DIR); simulator tests still cover this"; \
+#define DENSEMAP_REQUIRE_DATA(sub)                                                                    \
+  do {                                                                                                \
+    if (!::densemap::test::haveData(sub))                                                             \
+      GTEST_SKIP()                                                                                    \
+          << "real data not found at " << ::densemap::test::dataDir() << "/" << (sub)                 \
+          << " (clone next to ../shared or set DENSEMAP_DATA_DIR); simulator tests still cover this"; \
   } while (0)
 
 }  // namespace densemap::test

@@ -3,6 +3,8 @@
 #include <memory>
 #include <string>
 
+#include <omp.h>
+
 #include <gtest/gtest.h>
 #include <octomap/octomap.h>
 
@@ -31,8 +33,10 @@ std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend, double re
 }
 
 bool sameMap(const map::OccupancyMap& a, const map::OccupancyMap& b, std::string* why) {
-  if (a.backendName() == "grid") return static_cast<const map::GridMap&>(a).identical(static_cast<const map::GridMap&>(b), why);
-  return map::identicalTrees(static_cast<const map::OctreeMap&>(a).tree(), static_cast<const map::OctreeMap&>(b).tree(), why);
+  if (a.backendName() == "grid")
+    return static_cast<const map::GridMap&>(a).identical(static_cast<const map::GridMap&>(b), why);
+  return map::identicalTrees(static_cast<const map::OctreeMap&>(a).tree(),
+                             static_cast<const map::OctreeMap&>(b).tree(), why);
 }
 
 octomap::Pointcloud toOctomap(const std::vector<geometry::Vec3f>& pts) {
@@ -50,8 +54,12 @@ void checkCase(const io::ScanSource& src, const Case& c) {
   }
   // OctoMap's reference map (octree + batch).
   auto reference = map::OctreeMap::makeTree(c.resolution, {});
+  const int threads = omp_get_max_threads();
   for (const auto& [pts, o] : scans)
-    reference->insertPointCloud(toOctomap(pts), octomap::point3d(o.x(), o.y(), o.z()), c.max_range, false, false);
+    reference->insertPointCloud(toOctomap(pts), octomap::point3d(o.x(), o.y(), o.z()), c.max_range, false,
+                                false);
+  // OctoMap's header code sets the OpenMP thread count to 1 (see densemap-bench); restore it.
+  omp_set_num_threads(threads);
 
   for (const std::string backend : {"grid", "octree"}) {
     for (UpdateSemantics sem : {UpdateSemantics::kBatch, UpdateSemantics::kCounting}) {
@@ -128,6 +136,33 @@ TEST(Exactness, SimulatorDenseCoarse) {
   o.lidar.columns = 1024;
   io::LidarSimulator sim(o);
   checkCase(sim, {"sim-dense", 0, 5, 0.8});
+}
+
+TEST(Exactness, ResultsDoNotDependOnTheThreadCount) {
+  io::LidarSimulatorOptions o;
+  o.scans = 8;
+  o.lidar.rows = 32;
+  o.lidar.columns = 512;
+  io::LidarSimulator sim(o);
+  const int saved = omp_get_max_threads();
+  for (const std::string backend : {"grid", "octree"})
+    for (UpdateSemantics sem : {UpdateSemantics::kBatch, UpdateSemantics::kCounting})
+      for (UpdateMethod m : update::kAllMethods) {
+        std::unique_ptr<map::OccupancyMap> maps[2];
+        for (int t = 0; t < 2; ++t) {
+          omp_set_num_threads(t == 0 ? 1 : 3);
+          update::UpdateEngine engine(update::UpdateOptions{.method = m, .semantics = sem});
+          maps[t] = makeMap(backend, 0.3);
+          for (std::size_t i = 0; i < sim.size(); ++i) {
+            const io::Scan s = sim.read(i);
+            ASSERT_TRUE(engine.insert(*maps[t], s.worldPoints(), s.origin()).has_value());
+          }
+        }
+        std::string why;
+        EXPECT_TRUE(sameMap(*maps[0], *maps[1], &why))
+            << backend << " " << map::toString(sem) << " " << update::toString(m) << ": " << why;
+      }
+  omp_set_num_threads(saved);
 }
 
 }  // namespace

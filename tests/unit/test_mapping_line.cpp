@@ -25,7 +25,9 @@ struct Fig25 : ::testing::Test {
   KeyConverter conv{1.0};
   GridPlanes px{conv, kKeyCenter}, py{conv, kKeyCenter};
   MappingLine line;
-  void SetUp() override { line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter + 3, kKeyCenter + 1, px, py); }
+  void SetUp() override {
+    line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter + 3, kKeyCenter + 1, px, py);
+  }
 };
 
 TEST_F(Fig25, ProjectsTheGridPointsOfEachSlice) {
@@ -80,8 +82,8 @@ TEST_F(Fig25, EachSegmentIsOneTraversalPattern) {
 TEST(MappingLine, Fig26FiveRaysBecomeThreeSuperRays) {
   KeyConverter conv(1.0);
   const geometry::Vec3f origin(0.5f, 0.5f, 0.5f);
-  const std::vector<geometry::Vec3f> ends = {{3.9f, 1.05f, 0.5f}, {3.2f, 1.3f, 0.5f}, {3.5f, 1.6f, 0.5f},
-                                             {3.7f, 1.2f, 0.5f}, {3.1f, 1.9f, 0.5f}};
+  const std::vector<geometry::Vec3f> ends = {
+      {3.9f, 1.05f, 0.5f}, {3.2f, 1.3f, 0.5f}, {3.5f, 1.6f, 0.5f}, {3.7f, 1.2f, 0.5f}, {3.1f, 1.9f, 0.5f}};
   SuperRayGenerator gen(SuperRayOptions{2});
   std::vector<std::uint32_t> assignment;
   std::vector<SuperRay> rays;

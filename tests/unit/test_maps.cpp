@@ -128,7 +128,8 @@ TEST_F(SimMaps, OctreeSavesAsOctomapFiles) {
   }
   EXPECT_EQ(octree.tree().size(), octree.tree().calcNumNodes()) << "node counter out of step with the tree";
   const auto dir = std::filesystem::temp_directory_path();
-  const std::string ot = (dir / "densemap_test_map.ot").string(), bt = (dir / "densemap_test_map.bt").string();
+  const std::string ot = (dir / "densemap_test_map.ot").string(),
+                    bt = (dir / "densemap_test_map.bt").string();
   const std::size_t nodes = octree.tree().size();
   ASSERT_TRUE(octree.tree().write(ot));
   // OctoMap's non-const writeBinary() turns the tree into max-likelihood in place; saving must not.

@@ -14,7 +14,8 @@ namespace {
 std::vector<VoxelKey> octomapRay(const octomap::OcTree& tree, const Vec3f& o, const Vec3f& e) {
   octomap::KeyRay ray;
   std::vector<VoxelKey> out;
-  if (!tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()), octomap::point3d(e.x(), e.y(), e.z()), ray)) return out;
+  if (!tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()), octomap::point3d(e.x(), e.y(), e.z()), ray))
+    return out;
   for (const auto& k : ray) out.push_back(VoxelKey{{k[0], k[1], k[2]}});
   return out;
 }
@@ -26,11 +27,13 @@ std::vector<VoxelKey> forward(const KeyConverter& conv, const Vec3f& o, const Ve
   return out;
 }
 
-std::vector<VoxelKey> backward(const KeyConverter& conv, const Vec3f& o, const Vec3f& e, WalkStats* ws = nullptr) {
+std::vector<VoxelKey> backward(const KeyConverter& conv, const Vec3f& o, const Vec3f& e,
+                               WalkStats* ws = nullptr) {
   std::vector<VoxelKey> out;
   RaySetup r;
   if (setupRay(conv, o, e, r))
-    walkBackward(r, [](const VoxelKey&) { return false; }, [&](const VoxelKey& k) { out.push_back(k); }, ws);
+    walkBackward(
+        r, [](const VoxelKey&) { return false; }, [&](const VoxelKey& k) { out.push_back(k); }, ws);
   return out;
 }
 
@@ -83,7 +86,8 @@ TEST(RayTraversal, ExactTiesFallBackToOctomapOrder) {
       for (int z = -2; z <= 2; ++z) {
         if (x == 0 && y == 0 && z == 0) continue;
         const Vec3f o(0.0f, 0.0f, 0.0f);
-        const Vec3f e(0.5f * static_cast<float>(x), 0.5f * static_cast<float>(y), 0.5f * static_cast<float>(z));
+        const Vec3f e(0.5f * static_cast<float>(x), 0.5f * static_cast<float>(y),
+                      0.5f * static_cast<float>(z));
         std::vector<VoxelKey> fwd = octomapRay(tree, o, e);
         EXPECT_EQ(fwd, forward(conv, o, e)) << x << " " << y << " " << z;
         expectSameCells(fwd, backward(conv, o, e, &ws), "backward on a tie");

@@ -87,9 +87,9 @@ TEST(Sources, KittiOdometryLayoutWrittenFromKitti00) {
   fs::create_directories(dir.path / "velodyne");
   // KITTI 00's velodyne -> camera calibration.
   Eigen::Isometry3d tr = Eigen::Isometry3d::Identity();
-  tr.matrix().topRows<3>() << 4.276802385584e-04, -9.999672484946e-01, -8.084491683471e-03, -1.198459927713e-02,
-      -7.210626507497e-03, 8.081198471645e-03, -9.999413164504e-01, -5.403984729748e-02, 9.999738645903e-01,
-      4.859485810390e-04, -7.206933692422e-03, -2.921968648686e-01;
+  tr.matrix().topRows<3>() << 4.276802385584e-04, -9.999672484946e-01, -8.084491683471e-03,
+      -1.198459927713e-02, -7.210626507497e-03, 8.081198471645e-03, -9.999413164504e-01, -5.403984729748e-02,
+      9.999738645903e-01, 4.859485810390e-04, -7.206933692422e-03, -2.921968648686e-01;
   {
     std::ofstream calib(dir.path / "calib.txt");
     calib.precision(17);
@@ -125,7 +125,8 @@ TEST(Sources, KittiOdometryLayoutWrittenFromKitti00) {
     EXPECT_EQ(s.points[100], original[i].points[100]);
     // The data's rotations are orthonormal only to ~1e-7, and the Isometry inverse assumes orthonormality,
     // so the round trip through the calibration agrees to about that.
-    EXPECT_TRUE(s.pose.isApprox(original[i].pose, 1e-6)) << "scan " << i << "\n" << s.pose.matrix() << "\n"
+    EXPECT_TRUE(s.pose.isApprox(original[i].pose, 1e-6)) << "scan " << i << "\n"
+                                                         << s.pose.matrix() << "\n"
                                                          << original[i].pose.matrix();
     EXPECT_TRUE(s.lidar.has_value());
   }
@@ -177,7 +178,8 @@ TEST(Sources, CorruptFilesGiveErrorsNamingTheFile) {
   fs::create_directories(dir.path / "seq" / "poses");
   {
     std::ofstream pcd(dir.path / "seq" / "clouds" / "0.pcd");
-    pcd << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000\nHEIGHT 1\n"
+    pcd << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000\nHEIGHT "
+           "1\n"
            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1000\nDATA binary\n0123456789";
     std::ofstream pose(dir.path / "seq" / "poses" / "0.txt");
     pose << "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";

@@ -13,7 +13,8 @@
 namespace densemap::update {
 namespace {
 
-std::vector<octomap::OcTreeKey> octomapCells(const octomap::OcTree& tree, const geometry::Vec3f& o, const geometry::Vec3f& e) {
+std::vector<octomap::OcTreeKey> octomapCells(const octomap::OcTree& tree, const geometry::Vec3f& o,
+                                             const geometry::Vec3f& e) {
   octomap::KeyRay ray;
   tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()), octomap::point3d(e.x(), e.y(), e.z()), ray);
   return {ray.begin(), ray.end()};
@@ -21,7 +22,8 @@ std::vector<octomap::OcTreeKey> octomapCells(const octomap::OcTree& tree, const 
 
 /// Checks the property and returns the number of points that were grouped with others.
 std::size_t checkMembersTraverseRepresentativeCells(double res, const geometry::Vec3f& origin,
-                                                    const std::vector<geometry::Vec3f>& ends, std::uint32_t k) {
+                                                    const std::vector<geometry::Vec3f>& ends,
+                                                    std::uint32_t k) {
   octomap::OcTree tree(res);
   geometry::KeyConverter conv(res);
   SuperRayGenerator gen(SuperRayOptions{k});
@@ -49,7 +51,8 @@ TEST(SuperRays, RandomRaysInOneSuperRayTraverseIdenticalCells) {
   std::vector<geometry::Vec3f> ends;
   for (int c = 0; c < 60; ++c) {
     const geometry::Vec3f ctr(centre(rng), centre(rng), centre(rng) * 0.2f);
-    for (int i = 0; i < 200; ++i) ends.emplace_back(ctr.x() + jitter(rng), ctr.y() + jitter(rng), ctr.z() + jitter(rng));
+    for (int i = 0; i < 200; ++i)
+      ends.emplace_back(ctr.x() + jitter(rng), ctr.y() + jitter(rng), ctr.z() + jitter(rng));
   }
   const std::size_t grouped = checkMembersTraverseRepresentativeCells(0.4, {0.13f, -0.31f, 1.7f}, ends, 2);
   EXPECT_GT(grouped, ends.size() / 4) << "dense cells should group many rays";
@@ -61,7 +64,8 @@ TEST(SuperRays, OriginOnGridPlanes) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-12.0f, 12.0f);
   std::vector<geometry::Vec3f> ends;
-  for (int i = 0; i < 20000; ++i) ends.emplace_back(u(rng) * 0.3f + 4.0f, u(rng) * 0.3f - 3.0f, u(rng) * 0.05f);
+  for (int i = 0; i < 20000; ++i)
+    ends.emplace_back(u(rng) * 0.3f + 4.0f, u(rng) * 0.3f - 3.0f, u(rng) * 0.05f);
   checkMembersTraverseRepresentativeCells(0.2, {0.0f, 0.0f, 0.0f}, ends, 2);
 }
 

@@ -21,7 +21,8 @@ ScanRange parseScanRange(const std::string& text, std::size_t n) {
       v = std::stol(s, &used);
     } catch (const std::exception&) {
     }
-    if (v < 0 || used != s.size()) throw std::invalid_argument("bad scan range '" + text + "': expected FIRST:LAST");
+    if (v < 0 || used != s.size())
+      throw std::invalid_argument("bad scan range '" + text + "': expected FIRST:LAST");
     return static_cast<std::size_t>(v);
   };
   const auto colon = text.find(':');
@@ -33,7 +34,8 @@ ScanRange parseScanRange(const std::string& text, std::size_t n) {
   }
   if (r.first > r.last) throw std::invalid_argument("bad scan range '" + text + "': FIRST is after LAST");
   if (r.first >= n)
-    throw std::invalid_argument("scan range '" + text + "' starts past the source's " + std::to_string(n) + " scans");
+    throw std::invalid_argument("scan range '" + text + "' starts past the source's " + std::to_string(n) +
+                                " scans");
   if (r.last >= n) {
     spdlog::warn("scan range {} clipped to the source's last scan {}", text, n - 1);
     r.last = n - 1;

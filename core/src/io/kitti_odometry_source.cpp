@@ -68,7 +68,8 @@ Scan KittiOdometrySource::read(std::size_t i) const {
   std::ifstream in(bins_[i], std::ios::binary | std::ios::ate);
   if (!in) throw SourceError(bins_[i] + ": cannot open");
   const auto bytes = static_cast<std::size_t>(in.tellg());
-  if (bytes % 16 != 0) throw SourceError(bins_[i] + ": size is not a multiple of 16 bytes (x y z r float32): truncated?");
+  if (bytes % 16 != 0)
+    throw SourceError(bins_[i] + ": size is not a multiple of 16 bytes (x y z r float32): truncated?");
   in.seekg(0);
   std::vector<float> raw(bytes / 4);
   if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(bytes)))

@@ -15,7 +15,8 @@ LidarSimulatorOptions LidarSimulatorOptions::parse(const std::string& spec) {
   while (std::getline(ss, item, ',')) {
     if (item.empty()) continue;
     const auto eq = item.find('=');
-    if (eq == std::string::npos) throw std::invalid_argument("simulator option '" + item + "' is not key=value");
+    if (eq == std::string::npos)
+      throw std::invalid_argument("simulator option '" + item + "' is not key=value");
     const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
     double v;
     try {
@@ -25,29 +26,43 @@ LidarSimulatorOptions LidarSimulatorOptions::parse(const std::string& spec) {
     } catch (const std::exception&) {
       throw std::invalid_argument("simulator option '" + key + "' needs a number, got '" + value + "'");
     }
-    if (key == "scans") o.scans = static_cast<int>(v);
-    else if (key == "beams") o.lidar.rows = static_cast<int>(v);
-    else if (key == "columns") o.lidar.columns = static_cast<int>(v);
-    else if (key == "fov_up") o.lidar.fov_up_deg = v;
-    else if (key == "fov_down") o.lidar.fov_down_deg = v;
-    else if (key == "fov_h") o.lidar.fov_horizontal_deg = v;
-    else if (key == "speed") o.speed = v;
-    else if (key == "range") o.max_range = v;
-    else if (key == "noise") o.range_noise = v;
-    else if (key == "seed") o.seed = static_cast<std::uint64_t>(v);
-    else if (key == "scene_seed") o.scene.seed = static_cast<std::uint64_t>(v);
-    else if (key == "yaw_rate") o.yaw_rate_deg = v;
+    if (key == "scans")
+      o.scans = static_cast<int>(v);
+    else if (key == "beams")
+      o.lidar.rows = static_cast<int>(v);
+    else if (key == "columns")
+      o.lidar.columns = static_cast<int>(v);
+    else if (key == "fov_up")
+      o.lidar.fov_up_deg = v;
+    else if (key == "fov_down")
+      o.lidar.fov_down_deg = v;
+    else if (key == "fov_h")
+      o.lidar.fov_horizontal_deg = v;
+    else if (key == "speed")
+      o.speed = v;
+    else if (key == "range")
+      o.max_range = v;
+    else if (key == "noise")
+      o.range_noise = v;
+    else if (key == "seed")
+      o.seed = static_cast<std::uint64_t>(v);
+    else if (key == "scene_seed")
+      o.scene.seed = static_cast<std::uint64_t>(v);
+    else if (key == "yaw_rate")
+      o.yaw_rate_deg = v;
     else
-      throw std::invalid_argument("unknown simulator option '" + key +
-                                  "' (known: scans, beams, columns, fov_up, fov_down, fov_h, speed, range, noise, "
-                                  "seed, scene_seed, yaw_rate)");
+      throw std::invalid_argument(
+          "unknown simulator option '" + key +
+          "' (known: scans, beams, columns, fov_up, fov_down, fov_h, speed, range, noise, "
+          "seed, scene_seed, yaw_rate)");
   }
   if (o.scans < 1 || o.lidar.rows < 1 || o.lidar.columns < 1 || o.max_range <= 0 || o.range_noise < 0)
     throw std::invalid_argument("simulator: scans, beams, columns and range must be positive, noise >= 0");
   return o;
 }
 
-LidarSimulator::LidarSimulator(const LidarSimulatorOptions& options) : options_(options), scene_(options.scene) {}
+LidarSimulator::LidarSimulator(const LidarSimulatorOptions& options)
+    : options_(options), scene_(options.scene) {}
 
 Eigen::Isometry3d LidarSimulator::pose(std::size_t i) const {
   const double rate = options_.yaw_rate_deg * std::numbers::pi / 180.0;
@@ -76,7 +91,8 @@ Scan LidarSimulator::render(std::size_t i, const LidarGeometry& g) const {
   const Eigen::Vector3d o = s.pose.translation();
   s.points.reserve(static_cast<std::size_t>(g.rows) * static_cast<std::size_t>(g.columns));
   for (int r = 0; r < g.rows; ++r) {
-    const double el = (g.rows > 1 ? g.fov_up_deg - r * (g.fov_up_deg - g.fov_down_deg) / (g.rows - 1) : g.fov_up_deg) * deg;
+    const double el =
+        (g.rows > 1 ? g.fov_up_deg - r * (g.fov_up_deg - g.fov_down_deg) / (g.rows - 1) : g.fov_up_deg) * deg;
     for (int c = 0; c < g.columns; ++c) {
       const double az = (g.fov_horizontal_deg / 2.0 - (c + 0.5) * g.fov_horizontal_deg / g.columns) * deg;
       const Eigen::Vector3d dir_s(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));

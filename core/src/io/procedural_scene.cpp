@@ -9,7 +9,8 @@ namespace densemap::io {
 namespace {
 constexpr double kEps = 1e-9;
 
-std::optional<double> hitBox(const ProceduralScene::Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+std::optional<double> hitBox(const ProceduralScene::Box& b, const Eigen::Vector3d& o,
+                             const Eigen::Vector3d& d) {
   double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     if (std::fabs(d[a]) < kEps) {
@@ -25,7 +26,8 @@ std::optional<double> hitBox(const ProceduralScene::Box& b, const Eigen::Vector3
   return t0 > kEps ? std::optional<double>(t0) : std::nullopt;
 }
 
-std::optional<double> hitCylinder(const ProceduralScene::Cylinder& c, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+std::optional<double> hitCylinder(const ProceduralScene::Cylinder& c, const Eigen::Vector3d& o,
+                                  const Eigen::Vector3d& d) {
   std::optional<double> best;
   auto consider = [&](double t) {
     if (t > kEps && (!best || t < *best)) best = t;
@@ -54,7 +56,8 @@ std::optional<double> hitCylinder(const ProceduralScene::Cylinder& c, const Eige
   return best;
 }
 
-std::optional<double> hitSphere(const ProceduralScene::Sphere& s, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+std::optional<double> hitSphere(const ProceduralScene::Sphere& s, const Eigen::Vector3d& o,
+                                const Eigen::Vector3d& d) {
   const Eigen::Vector3d oc = o - s.center;
   const double b = oc.dot(d);
   const double c = oc.squaredNorm() - s.radius * s.radius;
@@ -104,7 +107,8 @@ ProceduralScene::ProceduralScene(const SceneOptions& opt) : options_(opt) {
   }
 }
 
-std::optional<double> ProceduralScene::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range) const {
+std::optional<double> ProceduralScene::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                            double max_range) const {
   std::optional<double> best;
   auto consider = [&](std::optional<double> t) {
     if (t && *t <= max_range && (!best || *t < *best)) best = t;

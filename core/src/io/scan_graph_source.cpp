@@ -48,7 +48,8 @@ ScanGraphSource::ScanGraphSource(const std::string& path) : path_(path) {
   Reader r(path, std::vector<char>(std::istreambuf_iterator<char>(in), {}));
   const auto nodes = r.get<std::uint32_t>("node count");
   constexpr std::size_t kMinNodeBytes = 4 + 4 + 24 + 4 + 32 + 4;
-  if (nodes > r.remaining() / kMinNodeBytes) r.fail("node count " + std::to_string(nodes) + " exceeds the file size");
+  if (nodes > r.remaining() / kMinNodeBytes)
+    r.fail("node count " + std::to_string(nodes) + " exceeds the file size");
   for (std::uint32_t n = 0; n < nodes; ++n) {
     const auto count = r.get<std::uint32_t>("point count");
     if (count > r.remaining() / 28) r.fail("point count " + std::to_string(count) + " exceeds the file size");

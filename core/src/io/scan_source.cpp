@@ -15,7 +15,8 @@ namespace fs = std::filesystem;
 std::unique_ptr<ScanSource> openSource(const std::string& spec) {
   if (spec == "sim" || spec.rfind("sim:", 0) == 0) {
     try {
-      return std::make_unique<LidarSimulator>(LidarSimulatorOptions::parse(spec.size() > 4 ? spec.substr(4) : ""));
+      return std::make_unique<LidarSimulator>(
+          LidarSimulatorOptions::parse(spec.size() > 4 ? spec.substr(4) : ""));
     } catch (const std::invalid_argument& e) {
       throw SourceError(e.what());
     }

@@ -34,7 +34,9 @@ SequenceDirectorySource::SequenceDirectorySource(std::string dir) : dir_(std::mo
 }
 
 Scan SequenceDirectorySource::read(std::size_t i) const {
-  if (i >= count_) throw SourceError(dir_ + ": scan " + std::to_string(i) + " out of range (" + std::to_string(count_) + " scans)");
+  if (i >= count_)
+    throw SourceError(dir_ + ": scan " + std::to_string(i) + " out of range (" + std::to_string(count_) +
+                      " scans)");
   Scan s;
   s.index = i;
   s.points = readPcd(dir_ + "/clouds/" + std::to_string(i) + ".pcd").points;

@@ -100,7 +100,8 @@ bool GridMap::identical(const GridMap& other, std::string* why) const {
     return false;
   };
   if (knownCells() != other.knownCells())
-    return fail("known cells differ: " + std::to_string(knownCells()) + " vs " + std::to_string(other.knownCells()));
+    return fail("known cells differ: " + std::to_string(knownCells()) + " vs " +
+                std::to_string(other.knownCells()));
   for (const auto& [id, b] : blocks_) {
     auto it = other.blocks_.find(id);
     for (int i = 0; i < kBlockVoxels; ++i) {

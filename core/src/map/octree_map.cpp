@@ -53,7 +53,8 @@ class BatchTreeUpdater {
       if (e.n_hit > 0) tree_.updateNode(k, scaled(e.n_hit, lo_.hit), false);
       start = 1;
     }
-    if (start < entries.size()) recurse(tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size());
+    if (start < entries.size())
+      recurse(tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size());
   }
 
  private:
@@ -119,8 +120,9 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
     });
   }
   if (evidence.overflowCount() > 0) {
-    evidence.forEachOverflowCell(
-        [&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) { entries.push_back({k, nf, nh}); });
+    evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
+      entries.push_back({k, nf, nh});
+    });
     std::sort(entries.begin(), entries.end(),
               [](const Entry& a, const Entry& b) { return mortonCode(a.key) < mortonCode(b.key); });
   }
@@ -157,7 +159,8 @@ void OctreeMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f
     for (unsigned x = 0; x < side; ++x)
       for (unsigned y = 0; y < side; ++y)
         for (unsigned z = 0; z < side; ++z)
-          f(VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + x), static_cast<geometry::KeyCoord>(base[1] + y),
+          f(VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + x),
+                      static_cast<geometry::KeyCoord>(base[1] + y),
                       static_cast<geometry::KeyCoord>(base[2] + z)}},
             v);
   }
@@ -168,7 +171,8 @@ bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::str
     if (why) *why = msg;
     return false;
   };
-  if (a.size() != b.size()) return fail("node counts differ: " + std::to_string(a.size()) + " vs " + std::to_string(b.size()));
+  if (a.size() != b.size())
+    return fail("node counts differ: " + std::to_string(a.size()) + " vs " + std::to_string(b.size()));
   if (a.getResolution() != b.getResolution()) return fail("resolutions differ");
   auto ia = a.begin_tree(), ea = a.end_tree();
   auto ib = b.begin_tree(), eb = b.end_tree();
@@ -177,8 +181,8 @@ bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::str
     if (ia.getDepth() != ib.getDepth() || !(ia.getKey() == ib.getKey()) || ia.isLeaf() != ib.isLeaf())
       return fail("shape differs at node " + std::to_string(i));
     if (std::bit_cast<std::uint32_t>(ia->getLogOdds()) != std::bit_cast<std::uint32_t>(ib->getLogOdds()))
-      return fail("log-odds differ at node " + std::to_string(i) + " depth " + std::to_string(ia.getDepth()) + ": " +
-                  std::to_string(ia->getLogOdds()) + " vs " + std::to_string(ib->getLogOdds()));
+      return fail("log-odds differ at node " + std::to_string(i) + " depth " + std::to_string(ia.getDepth()) +
+                  ": " + std::to_string(ia->getLogOdds()) + " vs " + std::to_string(ib->getLogOdds()));
   }
   if ((ia == ea) != (ib == eb)) return fail("trees have different lengths");
   return true;

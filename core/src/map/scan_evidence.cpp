@@ -16,7 +16,8 @@ ScanEvidence::Chunk::Chunk()
   for (std::size_t i = 0; i < kChunkBlocks; ++i) ::new (static_cast<void*>(blocks + i)) EvidenceBlock();
 }
 
-ScanEvidence::ScanEvidence() : chunks_(kMaxChunks), chunk_ptrs_(std::make_unique<std::atomic<Chunk*>[]>(kMaxChunks)) {
+ScanEvidence::ScanEvidence()
+    : chunks_(kMaxChunks), chunk_ptrs_(std::make_unique<std::atomic<Chunk*>[]>(kMaxChunks)) {
   for (std::size_t i = 0; i < kMaxChunks; ++i) chunk_ptrs_[i].store(nullptr, std::memory_order_relaxed);
 }
 
@@ -67,10 +68,10 @@ std::atomic<EvidenceBlock*>* ScanEvidence::slot(const VoxelKey& key) const {
       static_cast<unsigned>(by) >= static_cast<unsigned>(dims_[1]) ||
       static_cast<unsigned>(bz) >= static_cast<unsigned>(dims_[2]))
     return nullptr;
-  const std::size_t idx = (static_cast<std::size_t>(bx) * static_cast<std::size_t>(dims_[1]) +
-                           static_cast<std::size_t>(by)) *
-                              static_cast<std::size_t>(dims_[2]) +
-                          static_cast<std::size_t>(bz);
+  const std::size_t idx =
+      (static_cast<std::size_t>(bx) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(by)) *
+          static_cast<std::size_t>(dims_[2]) +
+      static_cast<std::size_t>(bz);
   return &directory_[idx];
 }
 
@@ -117,7 +118,8 @@ EvidenceBlock* ScanEvidence::block(const VoxelKey& key) {
   if (b != nullptr) return b;
   EvidenceBlock* fresh = allocate();
   constexpr geometry::KeyCoord mask = static_cast<geometry::KeyCoord>(~(kBlockSide - 1));
-  fresh->base = VoxelKey{{static_cast<geometry::KeyCoord>(key[0] & mask), static_cast<geometry::KeyCoord>(key[1] & mask),
+  fresh->base = VoxelKey{{static_cast<geometry::KeyCoord>(key[0] & mask),
+                          static_cast<geometry::KeyCoord>(key[1] & mask),
                           static_cast<geometry::KeyCoord>(key[2] & mask)}};
   EvidenceBlock* expected = nullptr;
   if (s->compare_exchange_strong(expected, fresh, std::memory_order_acq_rel)) {
@@ -179,7 +181,8 @@ void ScanEvidence::resolveOccupiedWins() {
   const std::size_t n = blockCount();
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
-    EvidenceBlock& b = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed)->blocks[i % kChunkBlocks];
+    EvidenceBlock& b =
+        chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed)->blocks[i % kChunkBlocks];
     for (std::size_t w = 0; w < b.free.words.size(); ++w) b.free.words[w] &= ~b.hit.words[w];
   }
   for (auto& [key, counts] : overflow_)

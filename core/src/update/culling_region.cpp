@@ -66,7 +66,8 @@ CullingRegionStats growRegion(const VoxelKey& o, map::ScanEvidence& ev, Admit&& 
 
 }  // namespace
 
-CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const VoxelKey& o, map::ScanEvidence& ev) {
+CullingRegionStats CullingRegion::build(const map::OccupancyMap& map, const VoxelKey& o,
+                                        map::ScanEvidence& ev) {
   return growRegion<&EvidenceBlock::region, &EvidenceBlock::visited>(
       o, ev, [&](const VoxelKey& c) { return map.isFullyFree(c); });
 }

@@ -69,7 +69,9 @@ int MappingLine::classify(double u, double v) const {
   const double q = swapped_ ? u - ou_ : v - ov_;
   const double m = q / p;
   const auto it = std::upper_bound(slopes_.begin(), slopes_.end(), m);
-  auto near = [&](double g) { return std::fabs(m - g) <= kSlopeTolerance * (std::fabs(m) + std::fabs(g)) + 1e-300; };
+  auto near = [&](double g) {
+    return std::fabs(m - g) <= kSlopeTolerance * (std::fabs(m) + std::fabs(g)) + 1e-300;
+  };
   if (it != slopes_.end() && near(*it)) return -1;
   if (it != slopes_.begin() && near(*(it - 1))) return -1;
   return static_cast<int>(it - slopes_.begin());

@@ -1,6 +1,7 @@
 #include "densemap/update/ray_tracer.h"
 
 #include <algorithm>
+#include <bit>
 #include <cstdlib>
 
 #include "densemap/geometry/ray_traversal.h"
@@ -32,6 +33,15 @@ struct Marker {
   }
 };
 
+/// The sample is chosen by the ray's endpoint, not its position in `rays`, so it does not depend on the
+/// order in which threads produced the rays (the statistics are reproducible, not only the map).
+inline bool inSample(const Vec3f& end, std::size_t every) {
+  std::uint64_t h = std::bit_cast<std::uint32_t>(end.x()) * 0x9E3779B97F4A7C15ULL;
+  h ^= std::bit_cast<std::uint32_t>(end.y()) * 0xC2B2AE3D27D4EB4FULL;
+  h ^= std::bit_cast<std::uint32_t>(end.z()) * 0x165667B19E3779F9ULL;
+  return (h >> 29) % every == 0;
+}
+
 template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
 TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
                         const std::vector<SuperRay>& rays, const TraceOptions& o) {
@@ -46,7 +56,8 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     geometry::WalkStats ws;
 #pragma omp for schedule(dynamic, 256) nowait
     for (std::size_t i = 0; i < rays.size(); ++i) {
-      if (subset != TraceOptions::Subset::kAll && ((i % every == 0) != (subset == TraceOptions::Subset::kSample)))
+      if (subset != TraceOptions::Subset::kAll &&
+          (inSample(rays[i].end, every) != (subset == TraceOptions::Subset::kSample)))
         continue;
       const SuperRay& r = rays[i];
       RaySetup setup;
@@ -54,10 +65,16 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
       auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
       if constexpr (kBackward) {
         if constexpr (kRegion) {
-          geometry::walkBackward(setup, [&](const VoxelKey& k) { return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
-                                                        : mark.cursor.template has<&map::EvidenceBlock::region>(k); }, visit, &ws);
+          geometry::walkBackward(
+              setup,
+              [&](const VoxelKey& k) {
+                return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
+                              : mark.cursor.template has<&map::EvidenceBlock::region>(k);
+              },
+              visit, &ws);
         } else {
-          geometry::walkBackward(setup, [](const VoxelKey&) { return false; }, visit, &ws);
+          geometry::walkBackward(
+              setup, [](const VoxelKey&) { return false; }, visit, &ws);
         }
       } else {
         geometry::walkForward(setup, visit);
@@ -83,9 +100,11 @@ TraceCounters dispatch(const map::OccupancyMap& map, map::ScanEvidence& ev, cons
 TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
                         const std::vector<SuperRay>& rays, const TraceOptions& o) {
   if (o.count_unnecessary) {
-    return o.counting ? dispatch<true, true>(map, ev, origin, rays, o) : dispatch<true, false>(map, ev, origin, rays, o);
+    return o.counting ? dispatch<true, true>(map, ev, origin, rays, o)
+                      : dispatch<true, false>(map, ev, origin, rays, o);
   }
-  return o.counting ? dispatch<false, true>(map, ev, origin, rays, o) : dispatch<false, false>(map, ev, origin, rays, o);
+  return o.counting ? dispatch<false, true>(map, ev, origin, rays, o)
+                    : dispatch<false, false>(map, ev, origin, rays, o);
 }
 
 }  // namespace densemap::update

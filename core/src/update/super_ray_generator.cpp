@@ -2,8 +2,8 @@
 
 #include <parallel/algorithm>
 
-#include <algorithm>
 #include <omp.h>
+#include <algorithm>
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/mapping_line.h"
@@ -45,8 +45,8 @@ struct Classified {
 }  // namespace
 
 void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
-                                 const std::vector<Vec3f>& ends, std::vector<SuperRay>& out, SuperRayStats* stats,
-                                 std::vector<std::uint32_t>* assignment) {
+                                 const std::vector<Vec3f>& ends, std::vector<SuperRay>& out,
+                                 SuperRayStats* stats, std::vector<std::uint32_t>* assignment) {
   out.clear();
   VoxelKey ok;
   if (!conv.toKey(origin, ok)) return;
@@ -108,8 +108,8 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
         const double px = p.x(), py = p.y(), pz = p.z();
         const int s0 = xy.classify(px, py), s1 = yz.classify(py, pz), s2 = zx.classify(pz, px);
         geometry::RaySetup setup;
-        const bool safe = s0 >= 0 && s1 >= 0 && s2 >= 0 && geometry::setupRay(conv, origin, p, setup) &&
-                          endIsRobust(setup);
+        const bool safe =
+            s0 >= 0 && s1 >= 0 && s2 >= 0 && geometry::setupRay(conv, origin, p, setup) && endIsRobust(setup);
         if (!safe) {
           // Passes within rounding distance of a grid edge, or ends next to a cell face: its own walk.
           ++unsafe;

@@ -39,7 +39,9 @@ UpdateEngine::UpdateEngine(UpdateOptions options) : options_(options) {}
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+double msSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
 }  // namespace
 
 std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const std::vector<Vec3f>& points,
@@ -93,8 +95,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     hi[a] = static_cast<geometry::KeyCoord>(bhi[a]);
   }
   for (std::size_t i = 0; i < n; ++i) {
-    if (kind_[i] == 1) ends.push_back(clipped_[i]);
-    else if (kind_[i] == 2) cut_ends.push_back(clipped_[i]);
+    if (kind_[i] == 1)
+      ends.push_back(clipped_[i]);
+    else if (kind_[i] == 2)
+      cut_ends.push_back(clipped_[i]);
   }
   // Rounding can let OctoMap's walk step one cell past the endpoint's box; pad it.
   for (int a = 0; a < 3; ++a) {
@@ -105,7 +109,8 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.prepare_ms = msSince(t0);
   const auto tg = Clock::now();
 
-  const bool use_super = options_.method == UpdateMethod::kSuperRays || options_.method == UpdateMethod::kSuperRaysCulling;
+  const bool use_super =
+      options_.method == UpdateMethod::kSuperRays || options_.method == UpdateMethod::kSuperRaysCulling;
   const bool use_culling =
       options_.method == UpdateMethod::kCullingRegion || options_.method == UpdateMethod::kSuperRaysCulling;
   std::vector<SuperRay>& rays = rays_;

@@ -110,9 +110,9 @@ void walkForward(const RaySetup& r, const VoxelKey& stop_key, Skip&& skip, Visit
 
 template <class Visit>
 void walkForward(const RaySetup& r, Visit&& visit) {
-  walkForward(r, r.end_key, [](const VoxelKey&) { return false; }, visit);
+  walkForward(
+      r, r.end_key, [](const VoxelKey&) { return false; }, visit);
 }
-
 
 /// How a backward walk ended.
 enum class WalkEnd {
@@ -207,7 +207,8 @@ struct WalkStats {
 template <class InRegion, class Visit>
 void walkBackward(const RaySetup& r, InRegion&& in_region, Visit&& visit, WalkStats* stats = nullptr) {
   if (r.origin_key == r.end_key) return;
-  const WalkResult res = walkBackwardFrom(r, r.end_key, true, in_region, [](const VoxelKey&) { return false; }, visit);
+  const WalkResult res = walkBackwardFrom(
+      r, r.end_key, true, in_region, [](const VoxelKey&) { return false; }, visit);
   if (stats && res.end == WalkEnd::kFallback) ++stats->fallbacks;
 }
 

@@ -29,8 +29,8 @@ struct VoxelKey {
     return (std::uint64_t{k[0]} << 32) | (std::uint64_t{k[1]} << 16) | std::uint64_t{k[2]};
   }
   static constexpr VoxelKey fromPacked(std::uint64_t p) {
-    return VoxelKey{{static_cast<KeyCoord>(p >> 32), static_cast<KeyCoord>(p >> 16),
-                     static_cast<KeyCoord>(p)}};
+    return VoxelKey{
+        {static_cast<KeyCoord>(p >> 32), static_cast<KeyCoord>(p >> 16), static_cast<KeyCoord>(p)}};
   }
 };
 
@@ -38,7 +38,8 @@ struct VoxelKeyHash {
   std::size_t operator()(const VoxelKey& key) const noexcept {
     // Spread the three 16-bit coordinates with large odd multipliers (cheap, good enough for
     // unordered containers of voxel keys).
-    return static_cast<std::size_t>(key.k[0]) * 83492791ULL ^ static_cast<std::size_t>(key.k[1]) * 19349663ULL ^
+    return static_cast<std::size_t>(key.k[0]) * 83492791ULL ^
+           static_cast<std::size_t>(key.k[1]) * 19349663ULL ^
            static_cast<std::size_t>(key.k[2]) * 73856093ULL;
   }
 };
@@ -76,7 +77,9 @@ class KeyConverter {
   }
 
   /// Lower corner of the voxel (the grid plane at its low side).
-  double lowerBound(KeyCoord key) const { return static_cast<double>(static_cast<int>(key) - kKeyCenter) * resolution_; }
+  double lowerBound(KeyCoord key) const {
+    return static_cast<double>(static_cast<int>(key) - kKeyCenter) * resolution_;
+  }
 
  private:
   double resolution_;

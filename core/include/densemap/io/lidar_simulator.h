@@ -10,15 +10,15 @@
 namespace densemap::io {
 
 struct LidarSimulatorOptions {
-  LidarGeometry lidar{};          ///< beams, columns, fields of view (KITTI HDL-64E-like by default)
-  int scans = 20;                 ///< number of scans along the trajectory
-  double speed = 1.0;             ///< metres travelled between scans (10 m/s at 10 Hz)
-  double start_x = -10.0;         ///< x of the first pose (m)
-  double sensor_height = 1.73;    ///< z of the sensor (m), as on the KITTI car
-  double max_range = 80.0;        ///< returns beyond this are missing (m)
-  double range_noise = 0.0;       ///< standard deviation of Gaussian range noise (m)
-  double yaw_rate_deg = 0.0;      ///< heading change per scan (degrees)
-  std::uint64_t seed = 1;         ///< noise seed (the scene has its own seed in `scene`)
+  LidarGeometry lidar{};        ///< beams, columns, fields of view (KITTI HDL-64E-like by default)
+  int scans = 20;               ///< number of scans along the trajectory
+  double speed = 1.0;           ///< metres travelled between scans (10 m/s at 10 Hz)
+  double start_x = -10.0;       ///< x of the first pose (m)
+  double sensor_height = 1.73;  ///< z of the sensor (m), as on the KITTI car
+  double max_range = 80.0;      ///< returns beyond this are missing (m)
+  double range_noise = 0.0;     ///< standard deviation of Gaussian range noise (m)
+  double yaw_rate_deg = 0.0;    ///< heading change per scan (degrees)
+  std::uint64_t seed = 1;       ///< noise seed (the scene has its own seed in `scene`)
   SceneOptions scene{};
 
   /// Parses "key=value,..." (keys: scans, beams, columns, fov_up, fov_down, fov_h, speed, range, noise,

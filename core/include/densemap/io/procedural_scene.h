@@ -13,7 +13,7 @@ namespace densemap::io {
 
 struct SceneOptions {
   std::uint64_t seed = 1;
-  double length = 120.0;       ///< road length along x (m), centred on x = 0
+  double length = 120.0;         ///< road length along x (m), centred on x = 0
   double road_half_width = 7.0;  ///< buildings start this far from the road's centre line (m)
   int buildings_per_side = 8;
   int boxes = 12;
@@ -38,7 +38,8 @@ class ProceduralScene {
   explicit ProceduralScene(const SceneOptions& options = {});
 
   /// Distance along the unit direction `dir` from `origin` to the first surface, if within max_range.
-  std::optional<double> cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double max_range) const;
+  std::optional<double> cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                             double max_range) const;
 
   const std::vector<Box>& boxes() const { return boxes_; }
   const std::vector<Cylinder>& cylinders() const { return cylinders_; }

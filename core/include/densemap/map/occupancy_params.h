@@ -8,10 +8,10 @@ namespace densemap::map {
 
 /// Probabilities of the inverse sensor model. Defaults are OctoMap's, so maps compare bit for bit.
 struct OccupancyParams {
-  double prob_hit = 0.7;         ///< P(occupied | endpoint in the cell)
-  double prob_miss = 0.4;        ///< P(occupied | ray passes through the cell)
-  double clamp_min = 0.1192;     ///< lower clamping bound: at or below it a cell is "fully free"
-  double clamp_max = 0.971;      ///< upper clamping bound: at or above it a cell is "fully occupied"
+  double prob_hit = 0.7;            ///< P(occupied | endpoint in the cell)
+  double prob_miss = 0.4;           ///< P(occupied | ray passes through the cell)
+  double clamp_min = 0.1192;        ///< lower clamping bound: at or below it a cell is "fully free"
+  double clamp_max = 0.971;         ///< upper clamping bound: at or above it a cell is "fully occupied"
   double occupied_threshold = 0.5;  ///< probability above which a cell reads as occupied
 
   /// OctoMap's logodds(): computed in double, stored as float.

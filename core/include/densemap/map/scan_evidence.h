@@ -46,7 +46,8 @@ constexpr int compact(int m) {
 
 inline int voxelIndexInBlock(const VoxelKey& key) {
   constexpr int m = kBlockSide - 1;
-  return detail::kSpread[static_cast<std::size_t>(key[0] & m)] | (detail::kSpread[static_cast<std::size_t>(key[1] & m)] << 1) |
+  return detail::kSpread[static_cast<std::size_t>(key[0] & m)] |
+         (detail::kSpread[static_cast<std::size_t>(key[1] & m)] << 1) |
          (detail::kSpread[static_cast<std::size_t>(key[2] & m)] << 2);
 }
 
@@ -68,8 +69,10 @@ struct BitPlane {
     if (!(w.load(std::memory_order_relaxed) & bit)) w.fetch_or(bit, std::memory_order_relaxed);
   }
   [[gnu::always_inline]] bool testAtomic(int i) const {
-    return (std::atomic_ref<const std::uint64_t>(words[static_cast<std::size_t>(i >> 6)]).load(std::memory_order_relaxed) >>
-            (i & 63)) & 1u;
+    return (std::atomic_ref<const std::uint64_t>(words[static_cast<std::size_t>(i >> 6)])
+                .load(std::memory_order_relaxed) >>
+            (i & 63)) &
+           1u;
   }
   bool any() const {
     std::uint64_t a = 0;
@@ -127,7 +130,8 @@ struct EvidenceBlock {
   bool hasEvidence(int i) const { return free.test(i) || hit.test(i); }
   VoxelKey voxelKey(int i) const {
     const auto d = voxelOffsetInBlock(i);
-    return VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + d[0]), static_cast<geometry::KeyCoord>(base[1] + d[1]),
+    return VoxelKey{{static_cast<geometry::KeyCoord>(base[0] + d[0]),
+                     static_cast<geometry::KeyCoord>(base[1] + d[1]),
                      static_cast<geometry::KeyCoord>(base[2] + d[2])}};
   }
 };
@@ -229,7 +233,7 @@ class ScanEvidence {
   void noteRegionsUsed() { regions_dirty_ = true; }
 
  private:
-  int lo_[3] = {0, 0, 0};        // box origin in block units
+  int lo_[3] = {0, 0, 0};  // box origin in block units
   int dims_[3] = {0, 0, 0};
   std::unique_ptr<std::atomic<EvidenceBlock*>[]> directory_;
   std::size_t directory_size_ = 0;
@@ -287,7 +291,8 @@ class EvidenceCursor {
   [[gnu::always_inline]] void addHit(const VoxelKey& key, std::uint32_t w) {
     if (EvidenceBlock* b = get(key)) {
       const int i = voxelIndexInBlock(key);
-      std::atomic_ref<std::uint32_t>(b->counters->n_hit[static_cast<std::size_t>(i)]).fetch_add(w, std::memory_order_relaxed);
+      std::atomic_ref<std::uint32_t>(b->counters->n_hit[static_cast<std::size_t>(i)])
+          .fetch_add(w, std::memory_order_relaxed);
       b->hit.setAtomic(i);
     } else {
       ev_.addHit(key, w);
@@ -296,7 +301,8 @@ class EvidenceCursor {
   [[gnu::always_inline]] void addFree(const VoxelKey& key, std::uint32_t w) {
     if (EvidenceBlock* b = get(key)) {
       const int i = voxelIndexInBlock(key);
-      std::atomic_ref<std::uint32_t>(b->counters->n_free[static_cast<std::size_t>(i)]).fetch_add(w, std::memory_order_relaxed);
+      std::atomic_ref<std::uint32_t>(b->counters->n_free[static_cast<std::size_t>(i)])
+          .fetch_add(w, std::memory_order_relaxed);
       b->free.setAtomic(i);
     } else {
       ev_.addFree(key, w);

@@ -39,7 +39,8 @@ inline float applyCellUpdate(float value, std::uint32_t n_free, std::uint32_t n_
 
 /// True when OctoMap's updateNode would return early for every part of this update (the cell is known and
 /// already clamped in the direction of each update), so the map, including an octree's shape, is untouched.
-inline bool isNoOpUpdate(bool known, float value, std::uint32_t n_free, std::uint32_t n_hit, const LogOdds& lo) {
+inline bool isNoOpUpdate(bool known, float value, std::uint32_t n_free, std::uint32_t n_hit,
+                         const LogOdds& lo) {
   if (!known) return false;
   const bool free_noop = n_free == 0 || value <= lo.min;
   const bool hit_noop = n_hit == 0 || value >= lo.max;

@@ -15,7 +15,7 @@ struct TraceOptions {
   bool backward = false;        ///< walk from the endpoint toward the sensor (needed by the culling region)
   bool region = false;          ///< the evidence holds a non-empty region to stop at
   bool stop_at_closed = false;  ///< stop at the in-scan closed region instead of the culling region
-  /// Which rays to walk: all, every `sample_every`-th (from 0), or all the others.
+  /// Which rays to walk: all, a sample of about 1 in `sample_every` (chosen by endpoint), or the others.
   enum class Subset { kAll, kSample, kRest } subset = Subset::kAll;
   std::size_t sample_every = 8;
   bool count_unnecessary = false;
@@ -30,7 +30,8 @@ struct TraceCounters {
 /// Records the free cells of every ray from `origin` to `rays[i].end` (excluding the end cell) with weight
 /// `rays[i].weight`: forward (baseline, OctoMap's order) or backward from the endpoint, stopping on entering
 /// the culling region held in the evidence.
-TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& evidence, const geometry::Vec3f& origin,
-                        const std::vector<SuperRay>& rays, const TraceOptions& options);
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& evidence,
+                        const geometry::Vec3f& origin, const std::vector<SuperRay>& rays,
+                        const TraceOptions& options);
 
 }  // namespace densemap::update

@@ -17,10 +17,10 @@
 namespace densemap::update {
 
 enum class UpdateMethod {
-  kBaseline,        ///< one forward 3D DDA per ray, OctoMap's cell sequence
-  kSuperRays,       ///< Sec. 2.3.1-2.3.4
-  kCullingRegion,   ///< Sec. 2.3.5: rays walked from the endpoint, stopping on entering the region
-  kSuperRaysCulling ///< both (the default)
+  kBaseline,         ///< one forward 3D DDA per ray, OctoMap's cell sequence
+  kSuperRays,        ///< Sec. 2.3.1-2.3.4
+  kCullingRegion,    ///< Sec. 2.3.5: rays walked from the endpoint, stopping on entering the region
+  kSuperRaysCulling  ///< both (the default)
 };
 
 std::string_view toString(UpdateMethod m);
