@@ -5,6 +5,8 @@
 #include <bit>
 #include <vector>
 
+#include <omp.h>
+
 namespace densemap::map {
 
 namespace {
@@ -38,9 +40,14 @@ using Entry = OctreeMap::Entry;
 /// Applies a Morton-sorted batch of cell updates in one depth-first pass. Mirrors
 /// OccupancyOcTreeBase::updateNode/updateNodeRecurs (lazy_eval = false) for each cell: early abort on a
 /// clamped cell, expansion of pruned nodes, creation of unknown nodes, then prune-or-max on the way up.
+/// Levels above kSplitDepth are walked serially; the subtrees below are independent and are updated in
+/// parallel, each thread creating and deleting nodes through its own empty OcTree (a node factory whose
+/// counter is added to the real tree at the end), so no OctoMap state is shared between threads.
 class BatchTreeUpdater {
  public:
-  BatchTreeUpdater(octomap::OcTree& tree, const LogOdds& lo) : tree_(tree), lo_(lo) {}
+  static constexpr unsigned kSplitDepth = 4;
+
+  BatchTreeUpdater(CountedOcTree& tree, const LogOdds& lo) : tree_(tree), lo_(lo) {}
 
   void run(std::vector<Entry>& entries) {
     if (entries.empty()) return;
@@ -53,22 +60,54 @@ class BatchTreeUpdater {
       if (e.n_hit > 0) tree_.updateNode(k, scaled(e.n_hit, lo_.hit), false);
       start = 1;
     }
-    if (start < entries.size())
-      recurse(tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size());
+    if (start == entries.size()) return;
+    tasks_.clear();
+    upper_.clear();
+    // Serial top: expand/create down to kSplitDepth, remembering the subtrees and the upper nodes.
+    descend(tree_, tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size(), true);
+    // Parallel subtrees.
+    const int threads = omp_get_max_threads();
+    std::vector<std::unique_ptr<octomap::OcTree>> factories;
+    for (int t = 0; t < threads; ++t)
+      factories.push_back(std::make_unique<octomap::OcTree>(tree_.getResolution()));
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t i = 0; i < tasks_.size(); ++i) {
+      Task& t = tasks_[i];
+      descend(*factories[static_cast<std::size_t>(omp_get_thread_num())], t.node, t.just_created, kSplitDepth,
+              t.begin, t.end, false);
+    }
+    for (const auto& f : factories) tree_.addToNodeCount(f->size());  // wraps correctly for net deletions
+    // Serial bottom-up finish of the upper nodes (post-order, as recorded).
+    for (octomap::OcTreeNode* n : upper_)
+      if (!tree_.pruneNode(n)) n->updateOccupancyChildren();
   }
 
  private:
-  void recurse(octomap::OcTreeNode* node, bool just_created, unsigned depth, Entry* b, Entry* e) {
+  struct Task {
+    octomap::OcTreeNode* node;
+    bool just_created;
+    Entry* begin;
+    Entry* end;
+  };
+
+  /// `factory` creates and deletes nodes (and counts them); `top` records tasks at kSplitDepth and defers
+  /// the upper nodes' prune-or-max to the end instead of doing it on the way up.
+  void descend(octomap::OcTree& factory, octomap::OcTreeNode* node, bool just_created, unsigned depth,
+               Entry* b, Entry* e, bool top) {
     if (depth == kTreeDepth) {
       node->setLogOdds(applyCellUpdate(node->getLogOdds(), b->n_free, b->n_hit, lo_));
       return;
     }
-    if (!just_created && !tree_.nodeHasChildren(node)) {
+    if (!just_created && !factory.nodeHasChildren(node)) {
       // A pruned leaf: OctoMap's early abort skips the cells it already clamps; expand only for the rest.
       const float v = node->getLogOdds();
       e = std::remove_if(b, e, [&](const Entry& x) { return isNoOpUpdate(true, v, x.n_free, x.n_hit, lo_); });
       if (e == b) return;
-      tree_.expandNode(node);
+      factory.expandNode(node);
+    }
+    if (top && depth == kSplitDepth) {
+      tasks_.push_back({node, just_created, b, e});
+      return;
     }
     const unsigned level = kTreeDepth - 1 - depth;
     for (Entry* it = b; it != e;) {
@@ -76,32 +115,45 @@ class BatchTreeUpdater {
       Entry* run_end = it + 1;
       while (run_end != e && childIndex(run_end->key, level) == pos) ++run_end;
       bool created = false;
-      if (!tree_.nodeChildExists(node, pos)) {
-        tree_.createNodeChild(node, pos);
+      if (!factory.nodeChildExists(node, pos)) {
+        factory.createNodeChild(node, pos);
         created = true;
       }
-      recurse(tree_.getNodeChild(node, pos), created, depth + 1, it, run_end);
+      descend(factory, factory.getNodeChild(node, pos), created, depth + 1, it, run_end, top);
       it = run_end;
     }
-    if (!tree_.pruneNode(node)) node->updateOccupancyChildren();
+    if (top) {
+      upper_.push_back(node);  // post-order: children (and their tasks) are recorded before the parent
+    } else if (!factory.pruneNode(node)) {
+      node->updateOccupancyChildren();
+    }
   }
 
-  octomap::OcTree& tree_;
+  CountedOcTree& tree_;
   const LogOdds& lo_;
+  std::vector<Task> tasks_;
+  std::vector<octomap::OcTreeNode*> upper_;
 };
+
+template <class Tree>
+void OctreeMap::configure(Tree& tree, const OccupancyParams& params) {
+  tree.setProbHit(params.prob_hit);
+  tree.setProbMiss(params.prob_miss);
+  tree.setClampingThresMin(params.clamp_min);
+  tree.setClampingThresMax(params.clamp_max);
+  tree.setOccupancyThres(params.occupied_threshold);
+}
 
 std::unique_ptr<octomap::OcTree> OctreeMap::makeTree(double resolution, const OccupancyParams& params) {
   auto tree = std::make_unique<octomap::OcTree>(resolution);
-  tree->setProbHit(params.prob_hit);
-  tree->setProbMiss(params.prob_miss);
-  tree->setClampingThresMin(params.clamp_min);
-  tree->setClampingThresMax(params.clamp_max);
-  tree->setOccupancyThres(params.occupied_threshold);
+  configure(*tree, params);
   return tree;
 }
 
 OctreeMap::OctreeMap(double resolution, const OccupancyParams& params)
-    : OccupancyMap(resolution, params), tree_(makeTree(resolution, params)) {}
+    : OccupancyMap(resolution, params), tree_(std::make_unique<CountedOcTree>(resolution)) {
+  configure(*tree_, params);
+}
 
 void OctreeMap::apply(const ScanEvidence& evidence) {
   // Blocks are aligned subtrees: sort blocks by Morton code, then list each block's cells in index order
@@ -110,13 +162,28 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
   blocks.clear();
   evidence.forEachBlock([&](const EvidenceBlock& b) { blocks.emplace_back(mortonCode(b.base), &b); });
   std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  // Each block's cells go to their own slice of the list (popcount prefix sums), filled in parallel.
   auto& entries = entries_;
-  entries.clear();
-  for (const auto& [code, b] : blocks) {
+  std::vector<std::size_t>& offset = offsets_;
+  offset.assign(blocks.size() + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    std::size_t n = 0;
+    const EvidenceBlock& b = *blocks[i].second;
+    for (std::size_t w = 0; w < b.free.words.size(); ++w)
+      n += static_cast<std::size_t>(std::popcount(b.free.words[w] | b.hit.words[w]));
+    offset[i + 1] = n;
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) offset[i + 1] += offset[i];
+  entries.resize(offset.back());
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    const EvidenceBlock* b = blocks[i].second;
+    std::size_t at = offset[i];
     // Voxel indices are Morton ranks within the block, so index order is OctoMap's child order.
-    b->forEachEvidenceVoxel([&](int i) {
-      const auto [nf, nh] = evidence.counts(*b, i);
-      entries.push_back({b->voxelKey(i), nf, nh});
+    b->forEachEvidenceVoxel([&](int v) {
+      const auto [nf, nh] = evidence.counts(*b, v);
+      entries[at++] = {b->voxelKey(v), nf, nh};
     });
   }
   if (evidence.overflowCount() > 0) {

@@ -13,6 +13,18 @@
 
 namespace densemap::map {
 
+/// octomap::OcTree plus access to its node counter, so subtrees can be updated in parallel with per-thread
+/// counters that are added back afterwards. Files it writes are plain OcTree files ("OcTree" type).
+class CountedOcTree : public octomap::OcTree {
+ public:
+  using octomap::OcTree::OcTree;
+  /// Adds nodes created (or, wrapping, removed) elsewhere to the node count.
+  void addToNodeCount(std::size_t delta) {
+    tree_size += delta;
+    size_changed = true;
+  }
+};
+
 class OctreeMap : public OccupancyMap {
  public:
   OctreeMap(double resolution, const OccupancyParams& params = {});
@@ -31,6 +43,8 @@ class OctreeMap : public OccupancyMap {
 
   /// Builds an OcTree with the same resolution and sensor model (for OctoMap reference runs).
   static std::unique_ptr<octomap::OcTree> makeTree(double resolution, const OccupancyParams& params);
+  template <class Tree>
+  static void configure(Tree& tree, const OccupancyParams& params);
 
   /// One cell's evidence, as listed for the depth-first tree update.
   struct Entry {
@@ -40,9 +54,10 @@ class OctreeMap : public OccupancyMap {
   };
 
  private:
-  std::unique_ptr<octomap::OcTree> tree_;
+  std::unique_ptr<CountedOcTree> tree_;
   std::vector<Entry> entries_;  // per-scan buffer, kept to avoid reallocating
   std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks_;
+  std::vector<std::size_t> offsets_;
 };
 
 /// Node-for-node comparison of two OcTrees: same shape, same log-odds bits in every node.
