@@ -63,8 +63,7 @@ OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, doub
   for (const auto& s : scans) {
     const octomap::Pointcloud pc = toOctomap(s.points);  // conversion not timed
     const auto t = Clock::now();
-    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false,
-                             false);
+    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false, false);
     r.scan_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t).count());
     r.total_ms += r.scan_ms.back();
   }
@@ -219,23 +218,17 @@ int main(int argc, char** argv) {
       std::map<std::pair<std::string, update::UpdateMethod>, Acc> acc;
       std::vector<double> octo_scan_ms;
       for (int rep = 0; rep < repeat; ++rep) {
-        OctomapRun o = runOctomap(scans, res, max_range);
-        octo_ms.push_back(o.total_ms);
-        if (rep == 0) {
-          reference = std::move(o.tree);
-          octo_scan_ms = o.scan_ms;
-        }
         for (const auto& backend : backend_list) {
           std::unique_ptr<map::OccupancyMap> baseline_map;
-          if (rep == 0 && std::find(method_list.begin(), method_list.end(),
-                                    update::UpdateMethod::kBaseline) == method_list.end()) {
-            update::UpdateOptions bo;
-            bo.method = update::UpdateMethod::kBaseline;
-            bo.semantics = sem;
-            bo.max_range = max_range;
-            baseline_map = runMethod(scans, backend, res, bo).map;
-          }
           for (auto m : method_list) {
+            // Each method run is paired with an OctoMap run just before it: both run alone with warm caches,
+            // and the pair is seconds apart, so drift of this machine's speed cancels in the ratio.
+            OctomapRun o = runOctomap(scans, res, max_range);
+            octo_ms.push_back(o.total_ms);
+            if (!reference) {
+              reference = std::move(o.tree);
+              octo_scan_ms = o.scan_ms;
+            }
             update::UpdateOptions opt;
             opt.method = m;
             opt.semantics = sem;
@@ -248,22 +241,26 @@ int main(int argc, char** argv) {
             a.proc_ms.push_back(r.sum.generation_ms);
             a.update_ms.push_back(r.sum.update_ms);
             a.ratio.push_back(o.total_ms / total);
-            if (rep == 0) {
-              a.stats = r.sum;
-              a.scan_ms = r.scan_ms;
-              if (m == update::UpdateMethod::kBaseline) baseline_map = std::move(r.map);
-              // The reference: OctoMap itself for octree + batch, else this backend's baseline.
-              std::string why;
-              bool same;
-              if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
-                same = map::identicalTrees(
-                    static_cast<map::OctreeMap&>(r.map ? *r.map : *baseline_map).tree(), *reference, &why);
-              } else {
-                same = identicalMaps(r.map ? *r.map : *baseline_map, *baseline_map, &why);
+            if (rep > 0) continue;
+            a.stats = r.sum;
+            a.scan_ms = r.scan_ms;
+            // The reference: OctoMap itself for octree + batch, else this backend's baseline method.
+            std::string why;
+            if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
+              a.identical = map::identicalTrees(static_cast<map::OctreeMap&>(*r.map).tree(), *reference, &why);
+            } else {
+              if (!baseline_map) {
+                if (m == update::UpdateMethod::kBaseline) {
+                  baseline_map = std::move(r.map);
+                } else {
+                  update::UpdateOptions bo = opt;
+                  bo.method = update::UpdateMethod::kBaseline;
+                  baseline_map = runMethod(scans, backend, res, bo).map;
+                }
               }
-              a.identical = same;
-              a.why = why;
+              a.identical = r.map ? identicalMaps(*r.map, *baseline_map, &why) : true;
             }
+            a.why = why;
           }
         }
       }

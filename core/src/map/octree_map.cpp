@@ -45,7 +45,7 @@ using Entry = OctreeMap::Entry;
 /// counter is added to the real tree at the end), so no OctoMap state is shared between threads.
 class BatchTreeUpdater {
  public:
-  static constexpr unsigned kSplitDepth = 4;
+  static constexpr unsigned kSplitDepth = 10;  // subtrees of 64^3 voxels: many independent tasks per scan
 
   BatchTreeUpdater(CountedOcTree& tree, const LogOdds& lo) : tree_(tree), lo_(lo) {}
 
