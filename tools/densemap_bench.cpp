@@ -63,7 +63,8 @@ OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, doub
   for (const auto& s : scans) {
     const octomap::Pointcloud pc = toOctomap(s.points);  // conversion not timed
     const auto t = Clock::now();
-    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false, false);
+    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false,
+                             false);
     r.scan_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t).count());
     r.total_ms += r.scan_ms.back();
   }
@@ -247,7 +248,8 @@ int main(int argc, char** argv) {
             // The reference: OctoMap itself for octree + batch, else this backend's baseline method.
             std::string why;
             if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
-              a.identical = map::identicalTrees(static_cast<map::OctreeMap&>(*r.map).tree(), *reference, &why);
+              a.identical =
+                  map::identicalTrees(static_cast<map::OctreeMap&>(*r.map).tree(), *reference, &why);
             } else {
               if (!baseline_map) {
                 if (m == update::UpdateMethod::kBaseline) {

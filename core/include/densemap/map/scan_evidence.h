@@ -254,9 +254,12 @@ class EvidenceCursor {
 
   /// The block of `key` if it exists (never allocates).
   [[gnu::always_inline]] EvidenceBlock* find(const VoxelKey& key) {
-    const std::uint64_t bk = blockKey(key);
-    if (bk != key_) {
-      key_ = bk;
+    // Same block as last time when the key differs from the cached one only in the low (in-block) bits.
+    if ((((key[0] ^ k0_) | (key[1] ^ k1_) | (key[2] ^ k2_)) >> kBlockShift) != 0 || !valid_) {
+      k0_ = key[0];
+      k1_ = key[1];
+      k2_ = key[2];
+      valid_ = true;
       block_ = ev_.findBlock(key);
     }
     return block_;
@@ -310,13 +313,9 @@ class EvidenceCursor {
   }
 
  private:
-  static std::uint64_t blockKey(const VoxelKey& k) {
-    return (std::uint64_t{static_cast<std::uint16_t>(k[0] >> kBlockShift)} << 32) |
-           (std::uint64_t{static_cast<std::uint16_t>(k[1] >> kBlockShift)} << 16) |
-           std::uint64_t{static_cast<std::uint16_t>(k[2] >> kBlockShift)};
-  }
   ScanEvidence& ev_;
-  std::uint64_t key_ = ~std::uint64_t{0};
+  unsigned k0_ = 0, k1_ = 0, k2_ = 0;
+  bool valid_ = false;
   EvidenceBlock* block_ = nullptr;
 };
 
