@@ -1,6 +1,7 @@
 // densemap-map: builds an occupancy map offline from any scan source and prints a summary.
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include <spdlog/spdlog.h>
