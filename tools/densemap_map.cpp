@@ -141,6 +141,9 @@ int main(int argc, char** argv) {
         spdlog::error("--output needs --backend octree (.bt/.ot are OctoMap formats)");
         return 2;
       }
+      std::error_code ec;
+      if (const auto parent = std::filesystem::path(output).parent_path(); !parent.empty())
+        std::filesystem::create_directories(parent, ec);  // a failure shows up as a failed write below
       const bool ok =
           output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinaryConst(output);
       if (!ok) {
