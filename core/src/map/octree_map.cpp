@@ -47,7 +47,11 @@ class BatchTreeUpdater {
  public:
   static constexpr unsigned kSplitDepth = 10;  // subtrees of 64^3 voxels: many independent tasks per scan
 
-  BatchTreeUpdater(CountedOcTree& tree, const LogOdds& lo) : tree_(tree), lo_(lo) {}
+  /// `factories`: empty OcTrees reused across scans as per-thread node factories (an OcTree allocates a
+  /// large ray buffer when constructed, so they are kept by the map).
+  BatchTreeUpdater(CountedOcTree& tree, const LogOdds& lo,
+                   std::vector<std::unique_ptr<octomap::OcTree>>& factories)
+      : tree_(tree), lo_(lo), factories_(factories) {}
 
   void run(std::vector<Entry>& entries) {
     if (entries.empty()) return;
@@ -66,17 +70,20 @@ class BatchTreeUpdater {
     // Serial top: expand/create down to kSplitDepth, remembering the subtrees and the upper nodes.
     descend(tree_, tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size(), true);
     // Parallel subtrees.
-    const int threads = omp_get_max_threads();
-    std::vector<std::unique_ptr<octomap::OcTree>> factories;
-    for (int t = 0; t < threads; ++t)
+    const auto threads = static_cast<std::size_t>(omp_get_max_threads());
+    auto& factories = factories_;
+    while (factories.size() < threads)
       factories.push_back(std::make_unique<octomap::OcTree>(tree_.getResolution()));
+    std::vector<std::size_t> before(factories.size());
+    for (std::size_t t = 0; t < factories.size(); ++t) before[t] = factories[t]->size();
 #pragma omp parallel for schedule(dynamic, 1)
     for (std::size_t i = 0; i < tasks_.size(); ++i) {
       Task& t = tasks_[i];
       descend(*factories[static_cast<std::size_t>(omp_get_thread_num())], t.node, t.just_created, kSplitDepth,
               t.begin, t.end, false);
     }
-    for (const auto& f : factories) tree_.addToNodeCount(f->size());  // wraps correctly for net deletions
+    // Node count changes made through each factory (unsigned wrap-around handles net deletions).
+    for (std::size_t t = 0; t < factories.size(); ++t) tree_.addToNodeCount(factories[t]->size() - before[t]);
     // Serial bottom-up finish of the upper nodes (post-order, as recorded).
     for (octomap::OcTreeNode* n : upper_)
       if (!tree_.pruneNode(n)) n->updateOccupancyChildren();
@@ -131,6 +138,7 @@ class BatchTreeUpdater {
 
   CountedOcTree& tree_;
   const LogOdds& lo_;
+  std::vector<std::unique_ptr<octomap::OcTree>>& factories_;
   std::vector<Task> tasks_;
   std::vector<octomap::OcTreeNode*> upper_;
 };
@@ -193,7 +201,7 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
     std::sort(entries.begin(), entries.end(),
               [](const Entry& a, const Entry& b) { return mortonCode(a.key) < mortonCode(b.key); });
   }
-  BatchTreeUpdater(*tree_, log_odds_).run(entries);
+  BatchTreeUpdater(*tree_, log_odds_, factories_).run(entries);
 }
 
 std::optional<float> OctreeMap::logOdds(const VoxelKey& key) const {

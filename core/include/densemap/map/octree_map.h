@@ -58,6 +58,7 @@ class OctreeMap : public OccupancyMap {
   std::vector<Entry> entries_;  // per-scan buffer, kept to avoid reallocating
   std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks_;
   std::vector<std::size_t> offsets_;
+  std::vector<std::unique_ptr<octomap::OcTree>> factories_;  // per-thread node factories for apply()
 };
 
 /// Node-for-node comparison of two OcTrees: same shape, same log-odds bits in every node.
