@@ -54,7 +54,6 @@ struct UpdateStats {
   std::uint64_t unnecessary = 0;     ///< visits of already fully free cells (when counted)
   std::uint64_t region_cells = 0;    ///< culling region size
   std::uint64_t closed_cells = 0;    ///< in-scan closed region size (batch semantics, culling methods)
-  std::uint64_t touched_cells = 0;   ///< distinct cells updated
   std::uint64_t fallbacks = 0;       ///< backward walks finished forward because of a rounding tie
   double prepare_ms = 0.0;           ///< validation, range cuts, bounding box (part of update_ms)
   double trace_ms = 0.0;             ///< ray traversals (part of update_ms)
