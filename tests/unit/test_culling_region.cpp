@@ -9,6 +9,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/update/culling_region.h"
 #include "densemap/update/update_engine.h"
+#include "test_simulator.h"
 
 namespace densemap::update {
 namespace {
@@ -16,14 +17,7 @@ namespace {
 using geometry::VoxelKey;
 
 struct CullingFixture : ::testing::Test {
-  io::LidarSimulator sim{[] {
-    io::LidarSimulatorOptions o;
-    o.scans = 12;
-    o.lidar.rows = 32;
-    o.lidar.columns = 720;
-    o.speed = 0.3;
-    return o;
-  }()};
+  io::LidarSimulator sim{test::smallSimulator(12, 32, 720, 0.3)};
   map::GridMap grid{0.4};
 
   void mapScans(std::size_t n) {

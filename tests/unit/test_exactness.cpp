@@ -13,6 +13,7 @@
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
 #include "test_data.h"
+#include "test_simulator.h"
 
 namespace densemap {
 namespace {
@@ -119,31 +120,18 @@ TEST_P(ExactnessOnData, La3dmUnstructured) {
 INSTANTIATE_TEST_SUITE_P(Resolutions, ExactnessOnData, ::testing::Values(0.1, 0.2, 0.4, 0.8));
 
 TEST(Exactness, SimulatorWithMaxRange) {
-  io::LidarSimulatorOptions o;
-  o.scans = 8;
-  o.lidar.rows = 32;
-  o.lidar.columns = 512;
-  o.range_noise = 0.01;
-  io::LidarSimulator sim(o);
+  io::LidarSimulator sim(test::smallSimulator(8, 32, 512, 1.0, 0.01));
   for (double res : {0.2, 0.4}) checkCase(sim, {"sim", 0, 7, res, 25.0});
 }
 
 TEST(Exactness, SimulatorDenseCoarse) {
   // Dense scans at a coarse resolution: many points per voxel, so super rays group a lot.
-  io::LidarSimulatorOptions o;
-  o.scans = 6;
-  o.lidar.rows = 64;
-  o.lidar.columns = 1024;
-  io::LidarSimulator sim(o);
+  io::LidarSimulator sim(test::smallSimulator(6, 64, 1024));
   checkCase(sim, {"sim-dense", 0, 5, 0.8});
 }
 
 TEST(Exactness, ResultsDoNotDependOnTheThreadCount) {
-  io::LidarSimulatorOptions o;
-  o.scans = 8;
-  o.lidar.rows = 32;
-  o.lidar.columns = 512;
-  io::LidarSimulator sim(o);
+  io::LidarSimulator sim(test::smallSimulator(8));
   const int saved = omp_get_max_threads();
   for (const std::string backend : {"grid", "octree"})
     for (UpdateSemantics sem : {UpdateSemantics::kBatch, UpdateSemantics::kCounting})

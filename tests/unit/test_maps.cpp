@@ -12,6 +12,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
+#include "test_simulator.h"
 
 namespace densemap::map {
 namespace {
@@ -50,13 +51,7 @@ TEST(Maps, CountingAppliesFreeThenHitClamped) {
 }
 
 struct SimMaps : ::testing::Test {
-  io::LidarSimulator sim{[] {
-    io::LidarSimulatorOptions o;
-    o.scans = 6;
-    o.lidar.rows = 32;
-    o.lidar.columns = 512;
-    return o;
-  }()};
+  io::LidarSimulator sim{test::smallSimulator(6)};
 };
 
 TEST_F(SimMaps, GridAndOctreeHoldTheSameCells) {

@@ -174,19 +174,6 @@ class ScanEvidence {
     return {b.free.test(i) ? 1u : 0u, b.hit.test(i) ? 1u : 0u};
   }
 
-  /// Calls f(key, n_free, n_hit) for every cell with evidence, in no particular order.
-  template <class F>
-  void forEachCell(F&& f) const {
-    forEachBlock([&](const EvidenceBlock& b) {
-      for (int i = 0; i < kBlockVoxels; ++i) {
-        if (!b.hasEvidence(i)) continue;
-        const auto [nf, nh] = counts(b, i);
-        f(b.voxelKey(i), nf, nh);
-      }
-    });
-    for (const auto& [key, c] : overflow_) f(key, c.first, c.second);
-  }
-
   template <class F>
   void forEachBlock(F&& f) const {
     const std::size_t n = blockCount();

@@ -22,7 +22,7 @@ std::string_view toString(UpdateSemantics s);
 std::optional<UpdateSemantics> parseSemantics(std::string_view s);
 
 /// Applies one scan's evidence to a cell value the way OctoMap's updateNode + updateNodeLogOdds do:
-/// add, then clamp. `known` is false for a never-observed cell (value treated as 0).
+/// add, then clamp. A never-observed cell enters with value 0, as a new OctoMap node does.
 inline float applyCellUpdate(float value, std::uint32_t n_free, std::uint32_t n_hit, const LogOdds& lo) {
   if (n_free > 0 && !(value <= lo.min)) {
     value += n_free == 1 ? lo.miss : static_cast<float>(n_free) * lo.miss;
