@@ -9,6 +9,7 @@
 
 #include "common/cli_common.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
 
@@ -136,20 +137,7 @@ int main(int argc, char** argv) {
     std::printf("  cells           %zu known: %zu occupied, %zu free; %.1f MB\n", occupied + free_cells,
                 occupied, free_cells, static_cast<double>(m->memoryBytes()) / 1e6);
     if (!output.empty()) {
-      auto* om = dynamic_cast<map::OctreeMap*>(m.get());
-      if (om == nullptr) {
-        spdlog::error("--output needs --backend octree (.bt/.ot are OctoMap formats)");
-        return 2;
-      }
-      std::error_code ec;
-      if (const auto parent = std::filesystem::path(output).parent_path(); !parent.empty())
-        std::filesystem::create_directories(parent, ec);  // a failure shows up as a failed write below
-      const bool ok =
-          output.ends_with(".ot") ? om->tree().write(output) : om->tree().writeBinaryConst(output);
-      if (!ok) {
-        spdlog::error("could not write {}: check the directory exists and is writable", output);
-        return 1;
-      }
+      map::saveMap(*m, output);  // any backend; throws with a message on failure
       std::printf("  saved           %s (open with octovis)\n", output.c_str());
     }
   } catch (const std::exception& e) {

@@ -17,4 +17,19 @@ std::vector<Vec3f> Scan::sensorPoints() const {
   return out;
 }
 
+Eigen::Isometry3d poseFromQuaternion(const std::array<double, 3>& position,
+                                     const std::array<double, 4>& wxyz) {
+  Eigen::Quaterniond q(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
+  q.normalize();
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = q.toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(position[0], position[1], position[2]);
+  return pose;
+}
+
+std::array<double, 4> quaternionOf(const Eigen::Isometry3d& pose) {
+  const Eigen::Quaterniond q(pose.rotation());
+  return {q.w(), q.x(), q.y(), q.z()};
+}
+
 }  // namespace densemap::io

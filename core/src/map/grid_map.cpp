@@ -94,6 +94,80 @@ void GridMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) 
   }
 }
 
+void GridMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
+                               const std::function<void(const VoxelKey&, float)>& f) const {
+  const std::size_t box_blocks = [&] {
+    std::size_t n = 1;
+    for (int a = 0; a < 3; ++a)
+      n *= static_cast<std::size_t>((hi[a] >> kBlockShift) - (lo[a] >> kBlockShift) + 1);
+    return n;
+  }();
+  // Small boxes: look up the blocks they touch; large ones: scan the map's blocks.
+  auto visitBlock = [&](std::uint64_t id, const Block& b) {
+    const VoxelKey bk = VoxelKey::fromPacked(id);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const float v = b.value[static_cast<std::size_t>(i)];
+      if (std::isnan(v)) continue;
+      const auto d = voxelOffsetInBlock(i);
+      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
+                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
+                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+      if (inBox(k, lo, hi)) f(k, v);
+    }
+  };
+  if (box_blocks < blocks_.size()) {
+    for (int x = lo[0] >> kBlockShift; x <= hi[0] >> kBlockShift; ++x)
+      for (int y = lo[1] >> kBlockShift; y <= hi[1] >> kBlockShift; ++y)
+        for (int z = lo[2] >> kBlockShift; z <= hi[2] >> kBlockShift; ++z) {
+          const std::uint64_t id = VoxelKey{
+              {static_cast<geometry::KeyCoord>(x), static_cast<geometry::KeyCoord>(y),
+               static_cast<geometry::KeyCoord>(
+                   z)}}.packed();
+          if (auto it = blocks_.find(id); it != blocks_.end()) visitBlock(id, *it->second);
+        }
+  } else {
+    for (const auto& [id, b] : blocks_) {
+      const VoxelKey bk = VoxelKey::fromPacked(id);
+      bool overlaps = true;
+      for (int a = 0; a < 3; ++a)
+        overlaps &= bk[a] >= (lo[a] >> kBlockShift) && bk[a] <= (hi[a] >> kBlockShift);
+      if (overlaps) visitBlock(id, *b);
+    }
+  }
+}
+
+std::size_t GridMap::eraseBox(const VoxelKey& lo, const VoxelKey& hi) {
+  std::size_t erased = 0;
+  for (auto it = blocks_.begin(); it != blocks_.end();) {
+    const VoxelKey bk = VoxelKey::fromPacked(it->first);
+    bool overlaps = true;
+    for (int a = 0; a < 3; ++a)
+      overlaps &= bk[a] >= (lo[a] >> kBlockShift) && bk[a] <= (hi[a] >> kBlockShift);
+    if (!overlaps) {
+      ++it;
+      continue;
+    }
+    Block& b = *it->second;
+    bool any_left = false;
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      float& v = b.value[static_cast<std::size_t>(i)];
+      if (std::isnan(v)) continue;
+      const auto d = voxelOffsetInBlock(i);
+      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
+                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
+                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+      if (inBox(k, lo, hi)) {
+        v = std::numeric_limits<float>::quiet_NaN();
+        ++erased;
+      } else {
+        any_left = true;
+      }
+    }
+    it = any_left ? std::next(it) : blocks_.erase(it);
+  }
+  return erased;
+}
+
 bool GridMap::identical(const GridMap& other, std::string* why) const {
   auto fail = [&](const std::string& msg) {
     if (why) *why = msg;

@@ -241,6 +241,33 @@ void OctreeMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f
   }
 }
 
+void OctreeMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
+                                 const std::function<void(const VoxelKey&, float)>& f) const {
+  const octomap::OcTreeKey kmin(lo[0], lo[1], lo[2]), kmax(hi[0], hi[1], hi[2]);
+  for (auto it = tree_->begin_leafs_bbx(kmin, kmax), end = tree_->end_leafs_bbx(); it != end; ++it) {
+    const octomap::OcTreeKey base = it.getIndexKey();
+    const unsigned side = 1u << (kTreeDepth - it.getDepth());
+    const float v = it->getLogOdds();
+    for (unsigned x = 0; x < side; ++x)
+      for (unsigned y = 0; y < side; ++y)
+        for (unsigned z = 0; z < side; ++z) {
+          const VoxelKey k{{static_cast<geometry::KeyCoord>(base[0] + x),
+                            static_cast<geometry::KeyCoord>(base[1] + y),
+                            static_cast<geometry::KeyCoord>(base[2] + z)}};
+          if (inBox(k, lo, hi)) f(k, v);
+        }
+  }
+}
+
+std::size_t OctreeMap::eraseBox(const VoxelKey& lo, const VoxelKey& hi) {
+  std::vector<VoxelKey> keys;
+  forEachCellInBox(lo, hi, [&](const VoxelKey& k, float) { keys.push_back(k); });
+  // deleteNode expands pruned leaves as needed; inner nodes are recomputed once afterwards.
+  for (const VoxelKey& k : keys) tree_->deleteNode(octomap::OcTreeKey(k[0], k[1], k[2]));
+  if (!keys.empty()) tree_->updateInnerOccupancy();
+  return keys.size();
+}
+
 bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::string* why) {
   auto fail = [&](const std::string& msg) {
     if (why) *why = msg;

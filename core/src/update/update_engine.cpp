@@ -45,7 +45,7 @@ double msSince(Clock::time_point t) {
 }  // namespace
 
 std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const std::vector<Vec3f>& points,
-                                                const Vec3f& origin) {
+                                                const Vec3f& origin, const ApplyWrapper& wrap) {
   const auto& conv = map.converter();
   UpdateStats st;
   st.points = points.size();
@@ -181,7 +181,11 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   }
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.
   if (!counting) ev.resolveOccupiedWins();
-  map.apply(ev);
+  if (wrap) {
+    wrap([&] { map.apply(ev); });
+  } else {
+    map.apply(ev);
+  }
   st.apply_ms = msSince(ta);
   st.update_ms = st.prepare_ms + msSince(t1);
   st.traversed = tc.traversed;

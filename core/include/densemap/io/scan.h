@@ -1,6 +1,7 @@
 // One LiDAR scan: points, the sensor pose, and optionally the LiDAR geometry range-image stages need.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -41,6 +42,13 @@ struct Scan {
   /// Points in the sensor frame.
   std::vector<Vec3f> sensorPoints() const;
 };
+
+/// The pose a position and a quaternion (w, x, y, z) describe, normalising the quaternion. The server builds
+/// received poses with it, so offline references that use it too see bit-identical world points.
+Eigen::Isometry3d poseFromQuaternion(const std::array<double, 3>& position,
+                                     const std::array<double, 4>& wxyz);
+/// The quaternion (w, x, y, z) of a pose's rotation.
+std::array<double, 4> quaternionOf(const Eigen::Isometry3d& pose);
 
 /// A file or data problem; the message names the file and what was wrong.
 class SourceError : public std::runtime_error {

@@ -28,6 +28,9 @@ class GridMap : public OccupancyMap {
   std::size_t knownCells() const override;
   std::size_t memoryBytes() const override;
   void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const override;
+  void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
+                        const std::function<void(const VoxelKey&, float)>& f) const override;
+  std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
   void clear() override { blocks_.clear(); }
 
   /// Bitwise comparison of two grids (same known cells, same float bits).

@@ -38,7 +38,23 @@ class OccupancyMap {
   /// expanded), in no particular order.
   virtual void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const = 0;
 
+  /// Calls f for every known cell with lo <= key <= hi on every axis (the default filters forEachCell).
+  virtual void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
+                                const std::function<void(const VoxelKey&, float)>& f) const {
+    forEachCell([&](const VoxelKey& k, float v) {
+      if (inBox(k, lo, hi)) f(k, v);
+    });
+  }
+
+  /// Forgets every cell with lo <= key <= hi (they become unknown); returns how many known cells were
+  /// removed.
+  virtual std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) = 0;
+
   virtual void clear() = 0;
+
+  static bool inBox(const VoxelKey& k, const VoxelKey& lo, const VoxelKey& hi) {
+    return k[0] >= lo[0] && k[0] <= hi[0] && k[1] >= lo[1] && k[1] <= hi[1] && k[2] >= lo[2] && k[2] <= hi[2];
+  }
 
   const geometry::KeyConverter& converter() const { return converter_; }
   double resolution() const { return converter_.resolution(); }

@@ -36,6 +36,9 @@ class OctreeMap : public OccupancyMap {
   std::size_t knownCells() const override;
   std::size_t memoryBytes() const override;
   void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const override;
+  void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
+                        const std::function<void(const VoxelKey&, float)>& f) const override;
+  std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
   void clear() override { tree_->clear(); }
 
   octomap::OcTree& tree() { return *tree_; }

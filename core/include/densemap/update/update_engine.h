@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -67,10 +68,15 @@ class UpdateEngine {
  public:
   explicit UpdateEngine(UpdateOptions options = {});
 
+  /// Runs the final write of a scan into the map (e.g. under a lock that readers share); the scan's
+  /// tracing before it only reads the map.
+  using ApplyWrapper = std::function<void(const std::function<void()>& apply)>;
+
   /// Inserts one scan: points and sensor origin in the map's (world) frame. Non-finite points are skipped
-  /// and counted; a non-finite or out-of-range origin rejects the whole scan (returns nullopt).
+  /// and counted; a non-finite or out-of-range origin rejects the whole scan (returns nullopt). The map is
+  /// written once, at the end, through `wrap` when given.
   std::optional<UpdateStats> insert(map::OccupancyMap& map, const std::vector<geometry::Vec3f>& points,
-                                    const geometry::Vec3f& origin);
+                                    const geometry::Vec3f& origin, const ApplyWrapper& wrap = {});
 
   const UpdateOptions& options() const { return options_; }
   void setOptions(const UpdateOptions& o) { options_ = o; }

@@ -1,0 +1,84 @@
+// The robot side of the scan topic: publishes core scans as DDS messages, and follows the server's
+// per-scan acknowledgements and statistics for the robots it publishes for.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "densemap/io/scan.h"
+#include "densemap/msg/dds_node.h"
+#include "densemap/msg/densemap.h"
+
+namespace densemap::client {
+
+struct AckCounts {
+  std::uint64_t applied = 0;
+  std::uint64_t rejected = 0;
+  std::uint64_t dropped = 0;
+  std::uint64_t total() const { return applied + rejected + dropped; }
+};
+
+class ScanPublisher {
+ public:
+  explicit ScanPublisher(msg::DdsNode& node);
+  ~ScanPublisher();
+  ScanPublisher(const ScanPublisher&) = delete;
+  ScanPublisher& operator=(const ScanPublisher&) = delete;
+
+  /// Waits until a server subscribes to scans (and publishes acks); false on timeout.
+  bool waitForServer(std::chrono::milliseconds timeout);
+
+  /// Publishes one scan for `robot_id`: sensor-frame points (or world-frame points when the scan is in the
+  /// world frame, sent with frame_id "world"), the pose as position + unit quaternion, the LiDAR geometry.
+  /// Blocks while the server is behind and the writer's history is full (reliable back-pressure).
+  /// Returns false when DDS refused the sample. Thread-safe.
+  bool publish(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan);
+  /// Publishes a raw message as is (tests use it to send malformed scans).
+  bool publishRaw(msg::Scan& m);
+
+  /// Waits until `expected` acknowledgements arrived for these robots, or the timeout passes.
+  AckCounts waitForAcks(const std::set<std::string>& robots, std::uint64_t expected,
+                        std::chrono::milliseconds timeout);
+  AckCounts acks(const std::set<std::string>& robots) const;
+  /// The acknowledgement of one scan, if it arrived.
+  std::optional<msg::ScanAck> ack(const std::string& robot_id, std::uint64_t seq) const;
+  /// Publish-to-map latencies (ms) of the applied scans of these robots.
+  std::vector<double> latenciesMs(const std::set<std::string>& robots) const;
+  /// The last statistics message from the server, if one arrived.
+  std::optional<msg::ServerStatistics> lastStatistics() const;
+  /// Waits for a statistics message newer than now in which these robots' counts add up to `expected`.
+  std::optional<msg::ServerStatistics> waitForStatistics(const std::set<std::string>& robots,
+                                                         std::uint64_t expected,
+                                                         std::chrono::milliseconds timeout);
+
+ private:
+  class Listener;
+  void onAcks();
+  void onStatistics();
+
+  msg::DdsNode& node_;
+  std::unique_ptr<Listener> listener_;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  eprosima::fastdds::dds::DataReader* ack_reader_ = nullptr;
+  eprosima::fastdds::dds::DataReader* stats_reader_ = nullptr;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
+  std::optional<msg::ServerStatistics> stats_;
+};
+
+/// Sum of these robots' counters in a statistics message.
+struct RobotTotals {
+  std::uint64_t received = 0, processed = 0, dropped = 0, rejected = 0;
+};
+RobotTotals totalsFor(const msg::ServerStatistics& s, const std::set<std::string>& robots);
+
+}  // namespace densemap::client

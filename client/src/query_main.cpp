@@ -1,0 +1,284 @@
+// densemap-query: every query kind from the command line, human-readable or --json, and `render` (PNG).
+#include <cstdio>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "common/cli_common.h"
+#include "densemap/client/map_render.h"
+#include "densemap/client/query_client.h"
+
+using namespace densemap;
+using nlohmann::json;
+
+namespace {
+
+std::array<float, 3> parseXyz(const std::string& s) {
+  std::array<float, 3> v{};
+  char c1 = 0, c2 = 0;
+  std::istringstream in(s);
+  if (!(in >> v[0] >> c1 >> v[1] >> c2 >> v[2]) || c1 != ',' || c2 != ',' || !in.eof()) {
+    throw std::invalid_argument("'" + s + "' is not a point; write x,y,z (e.g. 1.5,-2,0.3)");
+  }
+  return v;
+}
+
+std::string stateName(std::uint8_t s) {
+  return s == msg::CELL_OCCUPIED ? "occupied" : s == msg::CELL_FREE ? "free" : "unknown";
+}
+
+json statsJson(const msg::MapStatistics& s) {
+  return {{"backend", s.backend()},
+          {"resolution", s.resolution()},
+          {"map_version", s.map_version()},
+          {"known_cells", s.known_cells()},
+          {"occupied_cells", s.occupied_cells()},
+          {"memory_bytes", s.memory_bytes()},
+          {"bounds_min", s.bounds_min()},
+          {"bounds_max", s.bounds_max()}};
+}
+
+/// Fails with the reply's status and message when it is not OK.
+void check(const msg::QueryReply& r) {
+  if (r.status() != msg::STATUS_OK) {
+    throw std::runtime_error("server: " + client::toString(r.status()) + ": " + r.message());
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"densemap-query: ask a running densemap-server about its map"};
+  msg::DdsOptions dds;
+  bool as_json = false;
+  double timeout_s = 10.0;
+  std::string layer_name = "occupancy", log_level = "warn";
+  app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--json", as_json, "print one JSON object instead of text");
+  app.add_option("--timeout", timeout_s, "seconds to wait for the server and for each reply")
+      ->capture_default_str();
+  app.add_option("--layer", layer_name, "occupancy (exact log-odds map), dense or fused")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"occupancy", "dense", "fused"}));
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  app.require_subcommand(1);
+
+  std::vector<std::string> point_args;
+  auto* points = app.add_subcommand("points", "probability and state (free/occupied/unknown) per point");
+  points->add_option("xyz", point_args, "points as x,y,z")->required();
+  std::string box_min, box_max;
+  std::uint32_t limit = 0;
+  auto* box = app.add_subcommand("box", "occupied cells inside an axis-aligned box");
+  box->add_option("--min", box_min, "lower corner x,y,z")->required();
+  box->add_option("--max", box_max, "upper corner x,y,z")->required();
+  box->add_option("--limit", limit, "most cells to return (0: server default)");
+  std::string origin, direction;
+  float max_range = 50.0f;
+  bool ignore_unknown = false;
+  auto* ray = app.add_subcommand("ray", "first occupied cell along a ray");
+  ray->add_option("--origin", origin, "ray origin x,y,z")->required();
+  ray->add_option("--direction", direction, "direction x,y,z")->required();
+  ray->add_option("--max-range", max_range, "metres")->capture_default_str();
+  ray->add_flag("--ignore-unknown", ignore_unknown, "let the ray pass through unknown cells");
+  auto* stats = app.add_subcommand("stats", "map statistics");
+  std::string save_path;
+  auto* save = app.add_subcommand("save", "save the map to a server-side path (.bt or .ot)");
+  save->add_option("path", save_path, "file on the server's machine")->required();
+  auto* clear = app.add_subcommand("clear", "forget every cell in a box");
+  clear->add_option("--min", box_min, "lower corner x,y,z")->required();
+  clear->add_option("--max", box_max, "upper corner x,y,z")->required();
+  auto* reset = app.add_subcommand("reset", "forget the whole map");
+  std::string png = "map.png", area_min, area_max;
+  float slice_height = 1.0f, pixel = 0.0f;
+  auto* render = app.add_subcommand("render", "PNG: top-down occupied cells by height | probability slice");
+  render->add_option("--output", png, "PNG file to write")->capture_default_str();
+  render->add_option("--height", slice_height, "z of the probability slice in metres")->capture_default_str();
+  render->add_option("--pixel", pixel, "metres per pixel (default: the map resolution)");
+  render->add_option("--min", area_min, "lower corner x,y of the area (default: the map's bounds)");
+  render->add_option("--max", area_max, "upper corner x,y of the area");
+  CLI11_PARSE(app, argc, argv);
+  cli::setupLogging(log_level);
+
+  try {
+    dds.name = "densemap-query";
+    msg::DdsNode node(dds);
+    client::QueryClient qc(node, "query-" + std::to_string(::getpid()));
+    const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    if (!qc.waitForServer(timeout)) {
+      throw std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
+                               (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");
+    }
+    msg::QueryRequest rq;
+    rq.layer(layer_name == "dense"   ? msg::LAYER_DENSE
+             : layer_name == "fused" ? msg::LAYER_FUSED
+                                     : msg::LAYER_OCCUPANCY);
+    json out;
+    if (*points) {
+      rq.kind(msg::QUERY_POINTS);
+      for (const auto& p : point_args) {
+        const auto v = parseXyz(p);
+        rq.points().insert(rq.points().end(), v.begin(), v.end());
+      }
+      const auto r = qc.call(rq, timeout);
+      check(r);
+      out["map_version"] = r.map_version();
+      for (std::size_t i = 0; i < r.states().size(); ++i) {
+        out["points"].push_back(
+            {{"xyz", {rq.points()[3 * i], rq.points()[3 * i + 1], rq.points()[3 * i + 2]}},
+             {"probability", r.probabilities()[i]},
+             {"state", stateName(r.states()[i])}});
+        if (!as_json) {
+          std::printf("%s  p=%.3f  %s\n", point_args[i].c_str(), r.probabilities()[i],
+                      stateName(r.states()[i]).c_str());
+        }
+      }
+    } else if (*box) {
+      rq = client::boxRequest(msg::QUERY_BOX, parseXyz(box_min), parseXyz(box_max));
+      rq.limit(limit);
+      const auto r = qc.call(rq, timeout);
+      check(r);
+      const std::size_t n = r.cells().size() / 3;
+      out = {{"map_version", r.map_version()},
+             {"occupied_cells", n},
+             {"truncated", r.truncated()},
+             {"cells", r.cells()}};
+      if (!as_json) {
+        std::printf("%zu occupied cells%s\n", n, r.truncated() ? " (truncated at the limit)" : "");
+        for (std::size_t i = 0; i < std::min<std::size_t>(n, 20); ++i) {
+          std::printf("  %.2f %.2f %.2f\n", r.cells()[3 * i], r.cells()[3 * i + 1], r.cells()[3 * i + 2]);
+        }
+        if (n > 20) std::printf("  ... (--json prints all)\n");
+      }
+    } else if (*ray) {
+      rq.kind(msg::QUERY_RAY);
+      rq.ray_origin(parseXyz(origin));
+      rq.ray_direction(parseXyz(direction));
+      rq.max_range(max_range);
+      rq.ignore_unknown(ignore_unknown);
+      const auto r = qc.call(rq, timeout);
+      check(r);
+      out = {{"map_version", r.map_version()},
+             {"hit", r.hit()},
+             {"hit_point", r.hit_point()},
+             {"message", r.message()}};
+      if (!as_json) {
+        if (r.hit()) {
+          std::printf("hit %.2f %.2f %.2f (%s)\n", r.hit_point()[0], r.hit_point()[1], r.hit_point()[2],
+                      r.message().c_str());
+        } else {
+          std::printf("no hit: %s\n", r.message().c_str());
+        }
+      }
+    } else if (*stats || *save) {
+      rq.kind(*stats ? msg::QUERY_STATS : msg::QUERY_SAVE);
+      rq.path(save_path);
+      const auto r = qc.call(rq, timeout);
+      check(r);
+      out = statsJson(r.stats());
+      if (*save) out["saved"] = save_path;
+      if (!as_json) {
+        const auto& s = r.stats();
+        if (*save) std::printf("saved %s\n", save_path.c_str());
+        std::printf(
+            "%s map, %.2f m, version %llu: %llu known cells (%llu occupied), %.1f MB\n"
+            "bounds %.1f %.1f %.1f .. %.1f %.1f %.1f\n",
+            s.backend().c_str(), s.resolution(), static_cast<unsigned long long>(s.map_version()),
+            static_cast<unsigned long long>(s.known_cells()),
+            static_cast<unsigned long long>(s.occupied_cells()), static_cast<double>(s.memory_bytes()) / 1e6,
+            s.bounds_min()[0], s.bounds_min()[1], s.bounds_min()[2], s.bounds_max()[0], s.bounds_max()[1],
+            s.bounds_max()[2]);
+      }
+    } else if (*clear || *reset) {
+      rq = *clear ? client::boxRequest(msg::QUERY_CLEAR_BOX, parseXyz(box_min), parseXyz(box_max))
+                  : msg::QueryRequest();
+      if (*reset) rq.kind(msg::QUERY_RESET);
+      const auto r = qc.call(rq, timeout);
+      check(r);
+      out = {{"map_version", r.map_version()}, {"cells_changed", r.cells_changed()}};
+      if (!as_json) std::printf("%s\n", r.message().c_str());
+    } else if (*render) {
+      msg::QueryRequest srq;
+      srq.kind(msg::QUERY_STATS);
+      const auto s = qc.call(srq, timeout);
+      check(s);
+      const auto& st = s.stats();
+      if (st.known_cells() == 0) throw std::runtime_error("the map is empty: nothing to render");
+      client::RenderArea area;
+      area.pixel = pixel > 0 ? pixel : static_cast<float>(st.resolution());
+      area.x0 = st.bounds_min()[0];
+      area.y0 = st.bounds_min()[1];
+      area.x1 = st.bounds_max()[0];
+      area.y1 = st.bounds_max()[1];
+      if (!area_min.empty()) {
+        const auto v = parseXyz(area_min + ",0");
+        area.x0 = v[0];
+        area.y0 = v[1];
+      }
+      if (!area_max.empty()) {
+        const auto v = parseXyz(area_max + ",0");
+        area.x1 = v[0];
+        area.y1 = v[1];
+      }
+      if (area.width() * area.height() > 16'000'000) {
+        throw std::invalid_argument(
+            "the picture would be too large; pass a larger --pixel or a smaller area");
+      }
+      auto brq = client::boxRequest(msg::QUERY_BOX, {area.x0, area.y0, st.bounds_min()[2]},
+                                    {area.x1, area.y1, st.bounds_max()[2]});
+      brq.layer(rq.layer());
+      brq.limit(2'000'000);
+      const auto cells = qc.call(brq, timeout);
+      check(cells);
+      const auto top = client::renderTopDown(cells.cells(), area, st.bounds_min()[2], st.bounds_max()[2]);
+      // The slice: one point query per pixel centre, in chunks the server accepts.
+      const int w = area.width(), h = area.height();
+      std::vector<float> probs;
+      std::vector<std::uint8_t> states;
+      msg::QueryRequest prq;
+      prq.kind(msg::QUERY_POINTS);
+      prq.layer(rq.layer());
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          prq.points().insert(prq.points().end(),
+                              {area.x0 + (static_cast<float>(x) + 0.5f) * area.pixel,
+                               area.y1 - (static_cast<float>(y) + 0.5f) * area.pixel, slice_height});
+          if (prq.points().size() >= 3 * 250'000 || (y == h - 1 && x == w - 1)) {
+            const auto r = qc.call(prq, timeout);
+            check(r);
+            probs.insert(probs.end(), r.probabilities().begin(), r.probabilities().end());
+            states.insert(states.end(), r.states().begin(), r.states().end());
+            prq.points().clear();
+          }
+        }
+      }
+      const auto slice = client::renderSlice(probs, states, w, h);
+      client::writePng(png, client::sideBySide(top, slice));
+      out = {{"output", png},
+             {"width", 2 * w + 8},
+             {"height", h},
+             {"occupied_cells", cells.cells().size() / 3},
+             {"slice_height", slice_height},
+             {"map_version", st.map_version()}};
+      if (!as_json) {
+        std::printf(
+            "wrote %s (%dx%d): left, %zu occupied cells from above coloured by height %.1f..%.1f m; right, "
+            "probability slice at z = %.2f m (grey: unknown)\n",
+            png.c_str(), 2 * w + 8, h, cells.cells().size() / 3, st.bounds_min()[2], st.bounds_max()[2],
+            slice_height);
+      }
+    }
+    if (as_json) std::printf("%s\n", out.dump().c_str());
+  } catch (const std::exception& e) {
+    if (as_json) {
+      std::printf("%s\n", json{{"error", e.what()}}.dump().c_str());
+    }
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,264 @@
+// densemap-replay: publishes any scan source as one or several robots at a rate, reports what the server
+// acknowledged, and (with --query-clients) measures query round trips while the scans stream in.
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "common/cli_common.h"
+#include "densemap/client/query_client.h"
+#include "densemap/client/scan_publisher.h"
+
+using namespace densemap;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"densemap-replay: publish scans from a source as robots to a densemap-server over DDS"};
+  msg::DdsOptions dds;
+  std::string source = "sim", scans, prefix = "robot", offset_text = "0,0,0", summary_json,
+              log_level = "info";
+  int robots = 1, loops = 1, query_clients = 0;
+  double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0;
+  std::size_t query_points = 1000;
+  app.set_config("--config", "", "TOML file with any of these options (flags override it)");
+  app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
+      ->check(CLI::ExistingFile);
+  app.add_option(
+         "--source", source,
+         "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or "
+         ".graph")
+      ->capture_default_str();
+  app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
+  app.add_option("--robots", robots, "robots publishing the source at once")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  app.add_option("--robot-prefix", prefix, "robot ids are PREFIX-0, PREFIX-1, ...")->capture_default_str();
+  app.add_option("--robot-offset", offset_text, "robot k's scans are shifted by k times this x,y,z (metres)")
+      ->capture_default_str();
+  app.add_option("--rate", rate, "scans per second per robot (0: as fast as the server takes them)")
+      ->capture_default_str();
+  app.add_option("--speed", speed, "multiplies the rate (2: twice as fast)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--loops", loops, "replay the range this many times (sequence numbers keep counting)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--wait", wait_s,
+                 "seconds to wait for the server (start) and for its acknowledgements (end)")
+      ->capture_default_str();
+  app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
+      ->capture_default_str();
+  app.add_option("--query-points", query_points, "points per query")->capture_default_str();
+  app.add_option("--query-radius", query_radius, "query points are drawn within this many metres of robot 0")
+      ->capture_default_str();
+  app.add_option("--summary-json", summary_json, "write a JSON summary (counts, latencies) to this file");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  cli::setupLogging(log_level);
+
+  try {
+    float ox = 0, oy = 0, oz = 0;
+    if (std::sscanf(offset_text.c_str(), "%f,%f,%f", &ox, &oy, &oz) != 3) {
+      throw std::invalid_argument("--robot-offset must be x,y,z");
+    }
+    const Eigen::Vector3d offset(ox, oy, oz);
+    auto src = io::openSource(source);
+    const auto range = cli::parseScanRange(scans, src->size());
+    spdlog::info("source: {}", src->describe());
+    // Read every scan first, so file reading never slows the publishing rate down.
+    std::vector<io::Scan> data;
+    {
+      cli::Progress progress("reading", range.last - range.first + 1);
+      for (std::size_t i = range.first; i <= range.last; ++i) {
+        data.push_back(src->read(i));
+        progress.step(data.size());
+      }
+    }
+
+    dds.name = "densemap-replay";
+    msg::DdsNode node(dds);
+    client::ScanPublisher publisher(node);
+    const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
+    if (!publisher.waitForServer(wait)) {
+      throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
+                               std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
+                               " s; start it first or check --domain");
+    }
+    std::set<std::string> ids;
+    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(k));
+
+    // Query clients: point queries around robot 0's latest position, timed end to end.
+    std::atomic<bool> replaying{true};
+    std::array<std::atomic<float>, 3> robot0{};
+    for (auto& v : robot0) v = 0.0f;
+    std::mutex query_mutex;
+    std::vector<double> query_ms;
+    std::atomic<std::uint64_t> query_failures{0};
+    std::vector<std::thread> query_threads;
+    std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
+    for (int c = 0; c < query_clients; ++c) {
+      query_clients_v.push_back(std::make_unique<client::QueryClient>(
+          node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c)));
+      if (!query_clients_v.back()->waitForServer(wait))
+        throw std::runtime_error("the server does not answer queries");
+    }
+    for (int c = 0; c < query_clients; ++c) {
+      query_threads.emplace_back([&, c] {
+        std::mt19937 rng(static_cast<unsigned>(c + 1));
+        std::uniform_real_distribution<float> u(-static_cast<float>(query_radius),
+                                                static_cast<float>(query_radius));
+        std::uniform_real_distribution<float> uz(-2.0f, 3.0f);
+        std::vector<double> mine;
+        while (replaying) {
+          msg::QueryRequest rq;
+          rq.kind(msg::QUERY_POINTS);
+          rq.points().resize(3 * query_points);
+          for (std::size_t i = 0; i < query_points; ++i) {
+            rq.points()[3 * i] = robot0[0] + u(rng);
+            rq.points()[3 * i + 1] = robot0[1] + u(rng);
+            rq.points()[3 * i + 2] = robot0[2] + uz(rng);
+          }
+          const auto t0 = Clock::now();
+          try {
+            const auto r = query_clients_v[static_cast<std::size_t>(c)]->call(rq, std::chrono::seconds(5));
+            if (r.status() != msg::STATUS_OK) ++query_failures;
+          } catch (const std::exception&) {
+            ++query_failures;
+            continue;
+          }
+          mine.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        }
+        std::lock_guard lock(query_mutex);
+        query_ms.insert(query_ms.end(), mine.begin(), mine.end());
+      });
+    }
+
+    // One thread per robot, each on its own schedule, started a fraction of a period apart.
+    const std::size_t per_robot = data.size() * static_cast<std::size_t>(loops);
+    const std::uint64_t total = per_robot * static_cast<std::size_t>(robots);
+    const double period_s = rate > 0 ? 1.0 / (rate * speed) : 0.0;
+    std::atomic<std::uint64_t> sent{0}, refused{0};
+    cli::Progress progress("publishing", total);
+    const auto t_start = Clock::now();
+    std::vector<std::thread> robot_threads;
+    for (int k = 0; k < robots; ++k) {
+      robot_threads.emplace_back([&, k] {
+        const std::string id = prefix + "-" + std::to_string(k);
+        const auto start = t_start + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(period_s * k / std::max(1, robots)));
+        for (std::size_t n = 0; n < per_robot; ++n) {
+          if (period_s > 0) {
+            std::this_thread::sleep_until(
+                start + std::chrono::duration_cast<Clock::duration>(
+                            std::chrono::duration<double>(period_s * static_cast<double>(n))));
+          }
+          io::Scan scan = data[n % data.size()];
+          if (k > 0) {
+            scan.pose.pretranslate(offset * k);
+            if (scan.frame == io::PointFrame::kWorld) {
+              for (auto& p : scan.points) p += (offset * k).cast<float>();
+            }
+          }
+          if (k == 0) {
+            const Eigen::Vector3d t = scan.pose.translation();
+            for (int a = 0; a < 3; ++a) robot0[static_cast<std::size_t>(a)] = static_cast<float>(t[a]);
+          }
+          if (publisher.publish(id, n, scan)) {
+            progress.step(++sent);
+          } else {
+            ++refused;
+          }
+        }
+      });
+    }
+    for (auto& t : robot_threads) t.join();
+    const double publish_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+    const client::AckCounts acks = publisher.waitForAcks(ids, sent, wait);
+    replaying = false;
+    for (auto& t : query_threads) t.join();
+    const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+    // The server's own count, from its statistics (published once a second).
+    const auto stats = publisher.waitForStatistics(ids, sent, std::chrono::milliseconds(3000));
+    const client::RobotTotals server = stats ? client::totalsFor(*stats, ids) : client::RobotTotals{};
+    const auto lat = publisher.latenciesMs(ids);
+
+    nlohmann::json j = {{"source", src->describe()},
+                        {"robots", robots},
+                        {"rate_hz", rate * speed},
+                        {"scans_sent", sent.load()},
+                        {"scans_refused_by_dds", refused.load()},
+                        {"scans_acknowledged", acks.total()},
+                        {"scans_processed", server.processed},
+                        {"scans_dropped", server.dropped},
+                        {"scans_rejected", server.rejected},
+                        {"acks_applied", acks.applied},
+                        {"acks_dropped", acks.dropped},
+                        {"acks_rejected", acks.rejected},
+                        {"latency_p50_ms", percentile(lat, 0.5)},
+                        {"latency_p99_ms", percentile(lat, 0.99)},
+                        {"latency_max_ms", percentile(lat, 1.0)},
+                        {"publish_seconds", publish_s},
+                        {"total_seconds", total_s},
+                        {"server_statistics", stats.has_value()}};
+    if (query_clients > 0) {
+      const double points = static_cast<double>(query_ms.size() * query_points);
+      j["query_clients"] = query_clients;
+      j["query_points"] = query_points;
+      j["queries"] = query_ms.size();
+      j["query_failures"] = query_failures.load();
+      j["query_p50_ms"] = percentile(query_ms, 0.5);
+      j["query_p99_ms"] = percentile(query_ms, 0.99);
+      j["query_points_per_s"] = points / std::max(1e-9, total_s);
+    }
+    std::printf(
+        "sent %llu scans for %d robot(s) in %.1f s; acknowledged %llu (applied %llu, dropped %llu, rejected "
+        "%llu)\n",
+        static_cast<unsigned long long>(sent.load()), robots, publish_s,
+        static_cast<unsigned long long>(acks.total()), static_cast<unsigned long long>(acks.applied),
+        static_cast<unsigned long long>(acks.dropped), static_cast<unsigned long long>(acks.rejected));
+    std::printf(
+        "server statistics: %llu processed, %llu dropped, %llu rejected; publish-to-map latency p50 %.1f ms, "
+        "p99 %.1f ms\n",
+        static_cast<unsigned long long>(server.processed), static_cast<unsigned long long>(server.dropped),
+        static_cast<unsigned long long>(server.rejected), percentile(lat, 0.5), percentile(lat, 0.99));
+    if (query_clients > 0) {
+      std::printf(
+          "queries: %zu x %zu points from %d clients, round trip p50 %.2f ms, p99 %.2f ms, %.0f points/s, "
+          "%llu failed\n",
+          query_ms.size(), query_points, query_clients, percentile(query_ms, 0.5), percentile(query_ms, 0.99),
+          j["query_points_per_s"].get<double>(), static_cast<unsigned long long>(query_failures.load()));
+    }
+    if (!summary_json.empty()) {
+      std::ofstream f(summary_json);
+      if (!f) throw std::runtime_error("cannot write " + summary_json);
+      f << j.dump(2) << "\n";
+    }
+    if (acks.total() < sent) {
+      spdlog::error("{} scans were not acknowledged within {} s", sent - acks.total(), wait_s);
+      return 3;
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

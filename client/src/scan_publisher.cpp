@@ -1,0 +1,190 @@
+#include "densemap/client/scan_publisher.h"
+
+#include <thread>
+
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+
+#include "densemap/msg/densemapPubSubTypes.h"
+
+namespace densemap::client {
+
+namespace dds = eprosima::fastdds::dds;
+
+class ScanPublisher::Listener : public dds::DataReaderListener {
+ public:
+  explicit Listener(ScanPublisher& p) : p_(p) {}
+  void on_data_available(dds::DataReader* r) override {
+    if (r == p_.ack_reader_) {
+      p_.onAcks();
+    } else {
+      p_.onStatistics();
+    }
+  }
+
+ private:
+  ScanPublisher& p_;
+};
+
+ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node) {
+  listener_ = std::make_unique<Listener>(*this);
+  auto* scans = node_.topic(msg::kScanTopic, dds::TypeSupport(new msg::ScanPubSubType()));
+  auto* acks = node_.topic(msg::kScanAckTopic, dds::TypeSupport(new msg::ScanAckPubSubType()));
+  auto* stats = node_.topic(msg::kStatisticsTopic, dds::TypeSupport(new msg::ServerStatisticsPubSubType()));
+  writer_ = node_.writer(scans, msg::kScanWriterProfile);
+  ack_reader_ = node_.reader(acks, msg::kMessageReaderProfile, listener_.get());
+  stats_reader_ = node_.reader(stats, msg::kMessageReaderProfile, listener_.get());
+}
+
+ScanPublisher::~ScanPublisher() {
+  if (ack_reader_ != nullptr) ack_reader_->set_listener(nullptr);
+  if (stats_reader_ != nullptr) stats_reader_->set_listener(nullptr);
+}
+
+bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    dds::PublicationMatchedStatus pub;
+    dds::SubscriptionMatchedStatus sub;
+    writer_->get_publication_matched_status(pub);
+    ack_reader_->get_subscription_matched_status(sub);
+    if (pub.current_count > 0 && sub.current_count > 0) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+bool ScanPublisher::publish(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan) {
+  msg::Scan m;
+  m.robot_id(robot_id);
+  m.seq(seq);
+  m.stamp_ns(msg::nowNs());
+  m.frame_id(scan.frame == io::PointFrame::kWorld ? "world" : "sensor");
+  const Eigen::Vector3d t = scan.pose.translation();
+  const auto q = io::quaternionOf(scan.pose);
+  m.sensor_pose().px(t.x());
+  m.sensor_pose().py(t.y());
+  m.sensor_pose().pz(t.z());
+  m.sensor_pose().qw(q[0]);
+  m.sensor_pose().qx(q[1]);
+  m.sensor_pose().qy(q[2]);
+  m.sensor_pose().qz(q[3]);
+  auto& xyz = m.points();
+  xyz.resize(scan.points.size() * 3);
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    xyz[3 * i] = scan.points[i].x();
+    xyz[3 * i + 1] = scan.points[i].y();
+    xyz[3 * i + 2] = scan.points[i].z();
+  }
+  msg::LidarGeometry g;
+  if (scan.lidar) {
+    g.rows(static_cast<std::uint16_t>(scan.lidar->rows));
+    g.columns(static_cast<std::uint16_t>(scan.lidar->columns));
+    g.fov_up_deg(static_cast<float>(scan.lidar->fov_up_deg));
+    g.fov_down_deg(static_cast<float>(scan.lidar->fov_down_deg));
+    g.fov_horizontal_deg(static_cast<float>(scan.lidar->fov_horizontal_deg));
+  }
+  m.lidar(g);
+  return publishRaw(m);
+}
+
+bool ScanPublisher::publishRaw(msg::Scan& m) {
+  m.publish_ns(msg::nowNs());
+  return writer_->write(&m);
+}
+
+void ScanPublisher::onAcks() {
+  msg::ScanAck a;
+  dds::SampleInfo info;
+  std::lock_guard lock(mutex_);
+  while (ack_reader_->take_next_sample(&a, &info) == ReturnCode_t::RETCODE_OK) {
+    if (info.valid_data) acks_[{a.robot_id(), a.seq()}] = a;
+  }
+  changed_.notify_all();
+}
+
+void ScanPublisher::onStatistics() {
+  msg::ServerStatistics s;
+  dds::SampleInfo info;
+  std::lock_guard lock(mutex_);
+  while (stats_reader_->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
+    if (info.valid_data) stats_ = s;
+  }
+  changed_.notify_all();
+}
+
+AckCounts ScanPublisher::acks(const std::set<std::string>& robots) const {
+  std::lock_guard lock(mutex_);
+  AckCounts c;
+  for (const auto& [key, a] : acks_) {
+    if (!robots.count(key.first)) continue;
+    if (a.outcome() == msg::SCAN_APPLIED) ++c.applied;
+    if (a.outcome() == msg::SCAN_REJECTED) ++c.rejected;
+    if (a.outcome() == msg::SCAN_DROPPED) ++c.dropped;
+  }
+  return c;
+}
+
+AckCounts ScanPublisher::waitForAcks(const std::set<std::string>& robots, std::uint64_t expected,
+                                     std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    AckCounts c = acks(robots);
+    if (c.total() >= expected || std::chrono::steady_clock::now() >= deadline) return c;
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, std::chrono::milliseconds(50));
+  }
+}
+
+std::optional<msg::ScanAck> ScanPublisher::ack(const std::string& robot_id, std::uint64_t seq) const {
+  std::lock_guard lock(mutex_);
+  auto it = acks_.find({robot_id, seq});
+  if (it == acks_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<double> ScanPublisher::latenciesMs(const std::set<std::string>& robots) const {
+  std::lock_guard lock(mutex_);
+  std::vector<double> out;
+  for (const auto& [key, a] : acks_) {
+    if (robots.count(key.first) && a.outcome() == msg::SCAN_APPLIED) {
+      out.push_back(static_cast<double>(a.done_ns() - a.publish_ns()) * 1e-6);
+    }
+  }
+  return out;
+}
+
+std::optional<msg::ServerStatistics> ScanPublisher::lastStatistics() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+std::optional<msg::ServerStatistics> ScanPublisher::waitForStatistics(const std::set<std::string>& robots,
+                                                                      std::uint64_t expected,
+                                                                      std::chrono::milliseconds timeout) {
+  const std::int64_t since = msg::nowNs();
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    if (stats_ && stats_->stamp_ns() >= since) {
+      const RobotTotals t = totalsFor(*stats_, robots);
+      if (t.processed + t.dropped + t.rejected >= expected) return stats_;
+    }
+    if (std::chrono::steady_clock::now() >= deadline) return stats_;
+    changed_.wait_for(lock, std::chrono::milliseconds(50));
+  }
+}
+
+RobotTotals totalsFor(const msg::ServerStatistics& s, const std::set<std::string>& robots) {
+  RobotTotals t;
+  for (const auto& r : s.robots()) {
+    if (!robots.count(r.robot_id())) continue;
+    t.received += r.received();
+    t.processed += r.processed();
+    t.dropped += r.dropped();
+    t.rejected += r.rejected();
+  }
+  return t;
+}
+
+}  // namespace densemap::client

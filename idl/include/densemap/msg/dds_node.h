@@ -1,0 +1,82 @@
+// One DDS participant with its publisher and subscriber, configured from densemap's XML profiles
+// (config/dds_profiles.xml, compiled in). Shared by the server and the clients.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <fastdds/dds/core/policy/QosPolicies.hpp>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+namespace densemap::msg {
+
+/// Topic names.
+inline constexpr const char* kScanTopic = "densemap/scans";
+inline constexpr const char* kScanAckTopic = "densemap/scan_acks";
+inline constexpr const char* kQueryRequestTopic = "densemap/query/request";
+inline constexpr const char* kQueryReplyTopic = "densemap/query/reply";
+inline constexpr const char* kStatisticsTopic = "densemap/statistics";
+
+/// Profile names in config/dds_profiles.xml.
+inline constexpr const char* kScanWriterProfile = "scan_writer";
+inline constexpr const char* kScanReaderProfile = "scan_reader";
+inline constexpr const char* kMessageWriterProfile = "message_writer";
+inline constexpr const char* kMessageReaderProfile = "message_reader";
+
+struct DdsOptions {
+  /// DDS domain id (every program takes --domain N).
+  int domain = 0;
+  /// Shared memory + UDP on 127.0.0.1 only (profile "densemap_loopback") instead of every interface.
+  bool loopback = false;
+  /// An XML profile file to load instead of the built-in one (same profile names); empty: built-in.
+  std::string profile_file;
+  /// Participant name, shown by DDS tools.
+  std::string name = "densemap";
+};
+
+class DdsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class DdsNode {
+ public:
+  /// Throws DdsError when the profiles cannot be loaded or the participant cannot be created.
+  explicit DdsNode(const DdsOptions& options);
+  ~DdsNode();
+  DdsNode(const DdsNode&) = delete;
+  DdsNode& operator=(const DdsNode&) = delete;
+
+  eprosima::fastdds::dds::DomainParticipant& participant() { return *participant_; }
+
+  /// Registers the type on first use and returns the topic (one per name).
+  eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
+  eprosima::fastdds::dds::DataWriter* writer(eprosima::fastdds::dds::Topic* topic, const std::string& profile,
+                                             eprosima::fastdds::dds::DataWriterListener* listener = nullptr);
+  eprosima::fastdds::dds::DataReader* reader(eprosima::fastdds::dds::TopicDescription* topic,
+                                             const std::string& profile,
+                                             eprosima::fastdds::dds::DataReaderListener* listener);
+
+  /// Removes every listener-carrying entity (call before the listeners are destroyed).
+  void close();
+
+ private:
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+};
+
+/// System clock in nanoseconds (the clock scan stamps and latencies use; hosts are assumed NTP-synced).
+std::int64_t nowNs();
+
+}  // namespace densemap::msg

@@ -1,0 +1,116 @@
+#include "densemap/msg/dds_node.h"
+
+#include <chrono>
+#include <mutex>
+
+#include <spdlog/spdlog.h>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+
+#include "densemap/msg/densemapTypeObject.h"
+
+namespace densemap::msg {
+
+extern const char* const kEmbeddedProfilesXml;
+
+namespace dds = eprosima::fastdds::dds;
+
+namespace {
+
+// Profiles are process-wide in Fast DDS: load them once (the first node's choice wins).
+void loadProfiles(const std::string& file) {
+  static std::once_flag once;
+  static std::string loaded;
+  static bool ok = false;
+  std::call_once(once, [&] {
+    registerdensemapTypes();  // type objects, so DDS tools (e.g. Fast DDS Monitor) can show our types
+    auto* factory = dds::DomainParticipantFactory::get_instance();
+    if (file.empty()) {
+      const std::string xml = kEmbeddedProfilesXml;
+      ok = factory->load_XML_profiles_string(xml.c_str(), xml.size()) == ReturnCode_t::RETCODE_OK;
+      loaded = "built-in profiles";
+    } else {
+      ok = factory->load_XML_profiles_file(file) == ReturnCode_t::RETCODE_OK;
+      loaded = file;
+    }
+  });
+  if (!ok) {
+    throw DdsError("could not load the DDS XML profiles from " + loaded +
+                   " (check the file against config/dds_profiles.xml)");
+  }
+}
+
+}  // namespace
+
+std::int64_t nowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+DdsNode::DdsNode(const DdsOptions& options) {
+  if (options.domain < 0 || options.domain > 232) {
+    throw DdsError("DDS domain id " + std::to_string(options.domain) + " is out of range (0..232)");
+  }
+  loadProfiles(options.profile_file);
+  auto* factory = dds::DomainParticipantFactory::get_instance();
+  const std::string profile = options.loopback ? "densemap_loopback" : "densemap";
+  dds::DomainParticipantQos qos;
+  if (factory->get_participant_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError("the DDS profiles have no participant profile '" + profile + "'");
+  }
+  qos.name(options.name);
+  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain), qos);
+  if (participant_ == nullptr) {
+    throw DdsError("could not create a DDS participant on domain " + std::to_string(options.domain) +
+                   " (is /dev/shm writable and large enough?)");
+  }
+  publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) {
+    close();
+    throw DdsError("could not create the DDS publisher or subscriber");
+  }
+}
+
+DdsNode::~DdsNode() { close(); }
+
+void DdsNode::close() {
+  if (participant_ == nullptr) return;
+  participant_->delete_contained_entities();
+  dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  participant_ = nullptr;
+  publisher_ = nullptr;
+  subscriber_ = nullptr;
+  topics_.clear();
+}
+
+dds::Topic* DdsNode::topic(const std::string& name, dds::TypeSupport type) {
+  if (auto it = topics_.find(name); it != topics_.end()) return it->second;
+  if (participant_->find_type(type.get_type_name()).empty()) {
+    if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+      throw DdsError("could not register DDS type " + type.get_type_name());
+    }
+  }
+  dds::Topic* t = participant_->create_topic(name, type.get_type_name(), dds::TOPIC_QOS_DEFAULT);
+  if (t == nullptr) throw DdsError("could not create DDS topic " + name);
+  topics_[name] = t;
+  return t;
+}
+
+dds::DataWriter* DdsNode::writer(dds::Topic* topic, const std::string& profile,
+                                 dds::DataWriterListener* listener) {
+  dds::DataWriter* w = publisher_->create_datawriter_with_profile(topic, profile, listener);
+  if (w == nullptr)
+    throw DdsError("could not create a DDS writer on " + topic->get_name() + " (profile " + profile + ")");
+  return w;
+}
+
+dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const std::string& profile,
+                                 dds::DataReaderListener* listener) {
+  dds::DataReader* r = subscriber_->create_datareader_with_profile(topic, profile, listener);
+  if (r == nullptr)
+    throw DdsError("could not create a DDS reader on " + topic->get_name() + " (profile " + profile + ")");
+  return r;
+}
+
+}  // namespace densemap::msg

@@ -1,0 +1,104 @@
+// A bounded multi-producer queue with a configurable overflow policy: the producer waits for room, or the
+// oldest item is dropped (and handed back so the caller can count and report it).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <string_view>
+
+namespace densemap::server {
+
+enum class OverflowPolicy {
+  kWait,        ///< the producer blocks until there is room (back-pressure; nothing is lost)
+  kDropOldest,  ///< the oldest queued item is dropped (bounded latency; every drop is counted)
+};
+
+std::string_view toString(OverflowPolicy p);
+std::optional<OverflowPolicy> parseOverflowPolicy(std::string_view s);
+
+template <class T>
+class BoundedQueue {
+ public:
+  BoundedQueue(std::size_t capacity, OverflowPolicy policy)
+      : capacity_(capacity == 0 ? 1 : capacity), policy_(policy) {}
+
+  /// Adds an item. Under kDropOldest a full queue drops its oldest item, which is returned. Under kWait the
+  /// call blocks while the queue is full; once the queue is closed the
+  /// item itself is returned unqueued.
+  std::optional<T> push(T item) {
+    std::unique_lock lock(mutex_);
+    if (policy_ == OverflowPolicy::kWait) {
+      not_full_.wait(lock, [&] { return items_.size() < capacity_ || closed_; });
+    }
+    if (closed_) return item;
+    std::optional<T> dropped;
+    if (items_.size() >= capacity_) {
+      dropped = std::move(items_.front());
+      items_.pop_front();
+    }
+    items_.push_back(std::move(item));
+    lock.unlock();
+    not_empty_.notify_one();
+    return dropped;
+  }
+
+  /// Removes the oldest item without waiting.
+  std::optional<T> tryPop() {
+    std::unique_lock lock(mutex_);
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    lock.unlock();
+    not_full_.notify_one();
+    return item;
+  }
+
+  /// Waits up to `timeout` for an item; nullopt on timeout or when closed and empty.
+  template <class Rep, class Period>
+  std::optional<T> pop(std::chrono::duration<Rep, Period> timeout) {
+    std::unique_lock lock(mutex_);
+    not_empty_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    lock.unlock();
+    not_full_.notify_one();
+    return item;
+  }
+
+  /// Wakes every waiter; producers stop waiting, consumers drain what is left.
+  void close() {
+    {
+      std::lock_guard lock(mutex_);
+      closed_ = true;
+    }
+    not_full_.notify_all();
+    not_empty_.notify_all();
+  }
+
+  bool closedAndEmpty() const {
+    std::lock_guard lock(mutex_);
+    return closed_ && items_.empty();
+  }
+
+  std::size_t size() const {
+    std::lock_guard lock(mutex_);
+    return items_.size();
+  }
+  std::size_t capacity() const { return capacity_; }
+  OverflowPolicy policy() const { return policy_; }
+
+ private:
+  const std::size_t capacity_;
+  const OverflowPolicy policy_;
+  mutable std::mutex mutex_;
+  std::condition_variable not_full_, not_empty_;
+  std::deque<T> items_;
+  bool closed_ = false;
+};
+
+}  // namespace densemap::server

@@ -1,0 +1,25 @@
+// The exact map update as a pipeline stage: the core's UpdateEngine (super rays + culling region by
+// default) writing into the MapStore under its exclusive lock only for the final apply.
+#pragma once
+
+#include "densemap/server/map_store.h"
+#include "densemap/server/pipeline_stage.h"
+#include "densemap/update/update_engine.h"
+
+namespace densemap::server {
+
+class OccupancyStage : public PipelineStage {
+ public:
+  OccupancyStage(MapStore& store, update::UpdateOptions options) : store_(store), engine_(options) {}
+
+  std::string name() const override { return "occupancy"; }
+  StageResult process(ScanJob& job) override;
+  bool commitsToMap() const override { return true; }
+  void idle() override { store_.runCommands(); }
+
+ private:
+  MapStore& store_;
+  update::UpdateEngine engine_;
+};
+
+}  // namespace densemap::server

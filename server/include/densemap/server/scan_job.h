@@ -1,0 +1,27 @@
+// A scan on its way through the server's pipeline, in core types (the DDS edge converts once).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "densemap/io/scan.h"
+
+namespace densemap::server {
+
+struct ScanJob {
+  std::string robot_id;
+  std::uint64_t seq = 0;
+  std::int64_t publish_ns = 0;   ///< when the robot published it (system clock)
+  std::int64_t received_ns = 0;  ///< when the server took it from DDS
+  /// The pose as sent: position and quaternion (w, x, y, z), checked by validateScan before use.
+  std::array<double, 3> position{0, 0, 0};
+  std::array<double, 4> quaternion{1, 0, 0, 0};
+  /// Sensor-frame points; scan.pose is set by validateScan.
+  io::Scan scan;
+  std::uint32_t points_rejected = 0;  ///< non-finite or out-of-key-range points removed
+  std::uint64_t map_version = 0;      ///< map version once the scan is in the map
+  std::int64_t in_map_ns = 0;         ///< when the scan was in the map (system clock)
+};
+
+}  // namespace densemap::server

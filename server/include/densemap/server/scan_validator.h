@@ -1,0 +1,23 @@
+// Checks a received scan before it may touch the map. Whole-scan problems reject the scan (the map stays
+// unchanged); single non-finite points are removed and counted, as LiDAR drivers mark missing returns so.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "densemap/server/scan_job.h"
+
+namespace densemap::server {
+
+struct ScanLimits {
+  /// Scans with more points are rejected (a 128x2048 LiDAR gives 262,144).
+  std::size_t max_points = 1'000'000;
+  /// Largest accepted | |q| - 1 | of the pose quaternion (senders should normalise; rounding is tolerated).
+  double quaternion_tolerance = 1e-3;
+};
+
+/// Empty when the scan may be mapped (after removing non-finite points, counted in job.points_rejected, and
+/// setting job.scan.pose from the checked pose); else why it is rejected.
+std::string validateScan(ScanJob& job, const ScanLimits& limits);
+
+}  // namespace densemap::server

@@ -1,0 +1,43 @@
+// Everything densemap-server can be configured with, with documented defaults. The command line and the
+// configuration file (TOML, same names as the long flags) fill this in one place (server_cli.cpp).
+#pragma once
+
+#include <string>
+
+#include "densemap/map/occupancy_params.h"
+#include "densemap/msg/dds_node.h"
+#include "densemap/server/pipeline.h"
+#include "densemap/server/query_service.h"
+#include "densemap/server/scan_validator.h"
+#include "densemap/update/update_engine.h"
+
+namespace densemap::server {
+
+struct MapOptions {
+  std::string backend = "grid";   ///< "grid" (hashed dense blocks, fastest) or "octree" (OctoMap's OcTree)
+  double resolution = 0.2;        ///< voxel edge in metres
+  map::OccupancyParams params{};  ///< OctoMap's sensor model defaults
+};
+
+struct ServerOptions {
+  msg::DdsOptions dds{};
+  /// Names this server in statistics and logs.
+  std::string server_id = "densemap-server";
+  MapOptions map{};
+  update::UpdateOptions update{};  ///< super rays + culling region, batch semantics by default
+  PipelineOptions pipeline{};
+  ScanLimits limits{};
+  QueryLimits queries{};
+  /// Threads answering queries concurrently with the map update.
+  int query_threads = 2;
+  /// Threads of the map update (OpenMP); 0 = all cores.
+  int update_threads = 0;
+  /// Seconds between statistics messages (and log lines); 0 disables them.
+  double statistics_period_s = 1.0;
+  /// On shutdown: process every queued scan (true) or drop them, counted (false).
+  bool drain_on_exit = true;
+  /// On shutdown, save the map here (.bt or .ot); empty: do not save.
+  std::string save_on_exit;
+};
+
+}  // namespace densemap::server

@@ -1,0 +1,98 @@
+// densemap-server: the DDS mapping service. Runs with no configuration; a TOML file (--config, same names
+// as the long flags) and flags override the defaults.
+#include <csignal>
+#include <cstdio>
+
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+
+#include "common/cli_common.h"
+#include "densemap/server/mapping_server.h"
+
+using namespace densemap;
+
+int main(int argc, char** argv) {
+  CLI::App app{"densemap-server: builds an occupancy map from LiDAR scans on DDS and answers queries"};
+  server::ServerOptions o;
+  std::string method = "superrays+culling", semantics = "batch", overflow = "wait", log_level = "info";
+  app.set_config("--config", "", "TOML file with any of these options (flags override it)");
+  app.add_option("--domain", o.dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
+  app.add_flag("--loopback", o.dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_option("--dds-profile", o.dds.profile_file,
+                 "Fast DDS XML profile file to use instead of the built-in config/dds_profiles.xml")
+      ->check(CLI::ExistingFile);
+  app.add_option("--server-id", o.server_id, "name in statistics and logs")->capture_default_str();
+  app.add_option("--backend", o.map.backend, "map backend: grid or octree")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"grid", "octree"}));
+  app.add_option("--resolution", o.map.resolution, "voxel size in metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--method", method, "update method: baseline, superrays, culling or superrays+culling")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"baseline", "superrays", "culling", "superrays+culling"}));
+  app.add_option("--semantics", semantics, "batch (OctoMap insertPointCloud) or counting (Sec. 2.3.4)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"batch", "counting"}));
+  app.add_option("--max-range", o.update.max_range, "cut rays at this range in metres (<0: unlimited)")
+      ->capture_default_str();
+  app.add_option("--prob-hit", o.map.params.prob_hit, "P(occupied) of a cell holding an endpoint")
+      ->capture_default_str();
+  app.add_option("--prob-miss", o.map.params.prob_miss, "P(occupied) of a cell a ray crosses")
+      ->capture_default_str();
+  app.add_option("--clamp-min", o.map.params.clamp_min, "lower clamping probability")->capture_default_str();
+  app.add_option("--clamp-max", o.map.params.clamp_max, "upper clamping probability")->capture_default_str();
+  app.add_option("--robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option(
+         "--overflow", overflow,
+         "when a robot's queue is full: wait (slow the robot down, lose nothing) or drop_oldest (counted)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"wait", "drop_oldest"}));
+  app.add_option("--max-robots", o.pipeline.max_robots, "robots served at most")->capture_default_str();
+  app.add_option("--max-points", o.limits.max_points, "scans with more points are rejected")
+      ->capture_default_str();
+  app.add_option("--query-threads", o.query_threads, "threads answering queries")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  app.add_option("--update-threads", o.update_threads, "threads of the map update (0 = all cores)")
+      ->capture_default_str();
+  app.add_option("--statistics-period", o.statistics_period_s, "seconds between statistics messages (0: off)")
+      ->capture_default_str();
+  app.add_option("--save-on-exit", o.save_on_exit, "save the map here (.bt/.ot) when shutting down");
+  app.add_flag("!--drop-on-exit", o.drain_on_exit,
+               "on shutdown drop queued scans (counted) instead of mapping them");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  cli::setupLogging(log_level);
+  o.update.method = *update::parseMethod(method);
+  o.update.semantics = *map::parseSemantics(semantics);
+  o.pipeline.overflow = *server::parseOverflowPolicy(overflow);
+  cli::setThreads(o.update_threads);
+
+  // SIGINT/SIGTERM are taken by this thread only (blocked before any other thread starts).
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  try {
+    server::MappingServer server(o);
+    int sig = 0;
+    sigwait(&signals, &sig);
+    spdlog::info("received {}", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    server.stop();
+    const auto s = server.statistics();
+    for (const auto& r : s.robots()) {
+      std::printf(
+          "robot %-16s received %llu, in map %llu, dropped %llu, rejected %llu\n", r.robot_id().c_str(),
+          static_cast<unsigned long long>(r.received()), static_cast<unsigned long long>(r.processed()),
+          static_cast<unsigned long long>(r.dropped()), static_cast<unsigned long long>(r.rejected()));
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

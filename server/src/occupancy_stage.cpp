@@ -1,0 +1,26 @@
+#include "densemap/server/occupancy_stage.h"
+
+#include "densemap/msg/dds_node.h"
+
+namespace densemap::server {
+
+StageResult OccupancyStage::process(ScanJob& job) {
+  const std::vector<geometry::Vec3f> world = job.scan.worldPoints();
+  std::uint64_t version = 0;
+  const auto stats =
+      engine_.insert(store_.writerView(), world, job.scan.origin(), [&](const std::function<void()>& apply) {
+        store_.write([&](map::OccupancyMap&) { apply(); });
+        version = store_.version();
+      });
+  if (!stats) {
+    return StageResult::reject("the sensor origin lies outside the map's key range (|coordinate| > " +
+                               std::to_string(store_.writerView().resolution() * geometry::kKeyCenter) +
+                               " m)");
+  }
+  job.points_rejected += static_cast<std::uint32_t>(stats->rejected);
+  job.map_version = version;
+  job.in_map_ns = msg::nowNs();
+  return {};
+}
+
+}  // namespace densemap::server
