@@ -35,7 +35,8 @@ QueryClient::QueryClient(msg::DdsNode& node, std::string client_id) : node_(node
 
 QueryClient::~QueryClient() {
   // Stop callbacks before the listener goes away.
-  if (reader_ != nullptr) reader_->set_listener(nullptr);
+  node_.remove(reader_);
+  node_.remove(writer_);
 }
 
 bool QueryClient::waitForServer(std::chrono::milliseconds timeout) {

@@ -37,8 +37,10 @@ ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node) {
 }
 
 ScanPublisher::~ScanPublisher() {
-  if (ack_reader_ != nullptr) ack_reader_->set_listener(nullptr);
-  if (stats_reader_ != nullptr) stats_reader_->set_listener(nullptr);
+  // Stop callbacks before the listener goes away.
+  node_.remove(ack_reader_);
+  node_.remove(stats_reader_);
+  node_.remove(writer_);
 }
 
 bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {

@@ -75,6 +75,7 @@ DdsNode::DdsNode(const DdsOptions& options) {
 DdsNode::~DdsNode() { close(); }
 
 void DdsNode::close() {
+  std::lock_guard lock(mutex_);
   if (participant_ == nullptr) return;
   participant_->delete_contained_entities();
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
@@ -84,7 +85,18 @@ void DdsNode::close() {
   topics_.clear();
 }
 
+void DdsNode::remove(dds::DataReader* reader) {
+  std::lock_guard lock(mutex_);
+  if (participant_ != nullptr && reader != nullptr) subscriber_->delete_datareader(reader);
+}
+
+void DdsNode::remove(dds::DataWriter* writer) {
+  std::lock_guard lock(mutex_);
+  if (participant_ != nullptr && writer != nullptr) publisher_->delete_datawriter(writer);
+}
+
 dds::Topic* DdsNode::topic(const std::string& name, dds::TypeSupport type) {
+  std::lock_guard lock(mutex_);
   if (auto it = topics_.find(name); it != topics_.end()) return it->second;
   if (participant_->find_type(type.get_type_name()).empty()) {
     if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {

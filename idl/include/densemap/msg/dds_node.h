@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -66,6 +67,10 @@ class DdsNode {
                                              const std::string& profile,
                                              eprosima::fastdds::dds::DataReaderListener* listener);
 
+  /// Deletes a reader or writer this node created (waits for a listener call in progress to return).
+  void remove(eprosima::fastdds::dds::DataReader* reader);
+  void remove(eprosima::fastdds::dds::DataWriter* writer);
+
   /// Removes every listener-carrying entity (call before the listeners are destroyed).
   void close();
 
@@ -73,6 +78,7 @@ class DdsNode {
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;  // topic creation from several threads (e.g. query clients started in parallel)
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
 };
 

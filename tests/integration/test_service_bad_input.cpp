@@ -1,0 +1,191 @@
+// Bad input gets an error status or a rejection counter, the server stays up, and rejected input leaves
+// the map unchanged: after every case the served map still equals the offline map of the accepted scans.
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "service_harness.h"
+
+namespace densemap::test {
+namespace {
+
+/// A well-formed message for scan `s` (sensor frame), to be broken by each case.
+msg::Scan message(const io::Scan& s, const std::string& robot, std::uint64_t seq) {
+  msg::Scan m;
+  m.robot_id(robot);
+  m.seq(seq);
+  m.frame_id("sensor");
+  const Eigen::Vector3d t = s.pose.translation();
+  const auto q = io::quaternionOf(s.pose);
+  m.sensor_pose().px(t.x());
+  m.sensor_pose().py(t.y());
+  m.sensor_pose().pz(t.z());
+  m.sensor_pose().qw(q[0]);
+  m.sensor_pose().qx(q[1]);
+  m.sensor_pose().qy(q[2]);
+  m.sensor_pose().qz(q[3]);
+  for (const auto& p : s.points) m.points().insert(m.points().end(), {p.x(), p.y(), p.z()});
+  return m;
+}
+
+class BadInput : public ::testing::Test {
+ protected:
+  void start(int domain) {
+    auto o = serverOptions(domain);
+    o.limits.max_points = 20'000;
+    h_ = std::make_unique<ServiceHarness>(o);
+    scans_ = simScans(3);
+    ASSERT_EQ(h_->replay({scans_[0]}).applied, 1u);
+    accepted_ = {scans_[0]};
+  }
+  /// Sends a broken message; expects the given outcome in its acknowledgement.
+  msg::ScanAck send(msg::Scan m) {
+    EXPECT_TRUE(h_->robot->publishRaw(m));
+    h_->robot->waitForAcks({m.robot_id()}, ++sent_[m.robot_id()], 30s);
+    auto ack = h_->robot->ack(m.robot_id(), m.seq());
+    EXPECT_TRUE(ack.has_value()) << "no acknowledgement for " << m.robot_id() << "#" << m.seq();
+    return ack.value_or(msg::ScanAck());
+  }
+  void expectRejectedAndUnchanged(const msg::ScanAck& ack, const std::string& what) {
+    EXPECT_EQ(ack.outcome(), msg::SCAN_REJECTED) << what;
+    EXPECT_FALSE(ack.message().empty()) << what << ": a rejection must say why";
+    expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+  }
+
+  std::unique_ptr<ServiceHarness> h_;
+  std::vector<io::Scan> scans_, accepted_;
+  std::map<std::string, std::uint64_t> sent_{{"robot-0", 1}};
+};
+
+TEST_F(BadInput, NonFinitePointsAreDroppedAndCountedTheRestIsMapped) {
+  start(130);
+  msg::Scan m = message(scans_[1], "robot-0", 1);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  m.points()[0] = nan;
+  m.points()[4] = inf;
+  m.points()[8] = -inf;
+  const auto ack = send(m);
+  EXPECT_EQ(ack.outcome(), msg::SCAN_APPLIED) << ack.message();
+  EXPECT_EQ(ack.points_rejected(), 3u);
+  io::Scan filtered = scans_[1];
+  filtered.points.erase(filtered.points.begin(), filtered.points.begin() + 3);
+  accepted_.push_back(filtered);
+  expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+}
+
+TEST_F(BadInput, EmptyAllNanAndOversizedScansAreRejected) {
+  start(131);
+  msg::Scan empty = message(scans_[1], "robot-0", 1);
+  empty.points().clear();
+  expectRejectedAndUnchanged(send(empty), "empty scan");
+  msg::Scan all_nan = message(scans_[1], "robot-0", 2);
+  for (auto& v : all_nan.points()) v = std::numeric_limits<float>::quiet_NaN();
+  expectRejectedAndUnchanged(send(all_nan), "all-NaN scan");
+  msg::Scan big = message(scans_[1], "robot-0", 3);
+  while (big.points().size() / 3 <= 20'000) big.points().insert(big.points().end(), {1.f, 2.f, 3.f});
+  expectRejectedAndUnchanged(send(big), "scan over the point limit");
+  msg::Scan ragged = message(scans_[1], "robot-0", 4);
+  ragged.points().pop_back();
+  expectRejectedAndUnchanged(send(ragged), "points not packed x y z");
+  const auto stats = h_->server->statistics();
+  ASSERT_EQ(stats.robots().size(), 1u);
+  EXPECT_EQ(stats.robots()[0].rejected(), 4u);
+  EXPECT_EQ(stats.robots()[0].processed(), 1u);
+}
+
+TEST_F(BadInput, BadPosesAreRejected) {
+  start(132);
+  msg::Scan twice = message(scans_[1], "robot-0", 1);
+  twice.sensor_pose().qw(2.0 * twice.sensor_pose().qw());
+  twice.sensor_pose().qx(2.0 * twice.sensor_pose().qx());
+  twice.sensor_pose().qy(2.0 * twice.sensor_pose().qy());
+  twice.sensor_pose().qz(2.0 * twice.sensor_pose().qz());
+  expectRejectedAndUnchanged(send(twice), "non-unit quaternion");
+  msg::Scan zero = message(scans_[1], "robot-0", 2);
+  zero.sensor_pose().qw(0);
+  zero.sensor_pose().qx(0);
+  zero.sensor_pose().qy(0);
+  zero.sensor_pose().qz(0);
+  expectRejectedAndUnchanged(send(zero), "zero quaternion");
+  msg::Scan nan_pose = message(scans_[1], "robot-0", 3);
+  nan_pose.sensor_pose().px(std::numeric_limits<double>::quiet_NaN());
+  expectRejectedAndUnchanged(send(nan_pose), "NaN position");
+  msg::Scan far = message(scans_[1], "robot-0", 4);
+  far.sensor_pose().px(1e7);  // beyond the 0.2 m map's key range (+-6553.6 m)
+  expectRejectedAndUnchanged(send(far), "origin outside the key range");
+}
+
+TEST_F(BadInput, PointsBeyondTheKeyRangeAreDroppedAndCounted) {
+  start(133);
+  msg::Scan m = message(scans_[1], "robot-0", 1);
+  m.points()[0] = 1e6f;  // first point 1000 km away
+  const auto ack = send(m);
+  EXPECT_EQ(ack.outcome(), msg::SCAN_APPLIED) << ack.message();
+  EXPECT_EQ(ack.points_rejected(), 1u);
+  io::Scan kept = scans_[1];
+  kept.points.erase(kept.points.begin());
+  accepted_.push_back(kept);
+  expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+}
+
+TEST_F(BadInput, MalformedQueriesGetAnErrorStatusAndTheServerStaysUp) {
+  start(134);
+  auto expectStatus = [&](msg::QueryRequest rq, msg::QueryStatus want, const std::string& what) {
+    const auto r = h_->query->call(rq, 30s);
+    EXPECT_EQ(r.status(), want) << what << ": " << r.message();
+    EXPECT_FALSE(r.message().empty()) << what;
+  };
+  msg::QueryRequest unknown;
+  unknown.kind(static_cast<msg::QueryKind>(99));
+  expectStatus(unknown, msg::STATUS_UNKNOWN_KIND, "unknown kind");
+  expectStatus(client::boxRequest(msg::QUERY_BOX, {1, 1, 1}, {0, 2, 2}), msg::STATUS_INVALID_ARGUMENT,
+               "inverted box");
+  expectStatus(client::boxRequest(msg::QUERY_CLEAR_BOX, {0, 0, 5}, {1, 1, 1}), msg::STATUS_INVALID_ARGUMENT,
+               "inverted clear box");
+  msg::QueryRequest ragged;
+  ragged.kind(msg::QUERY_POINTS);
+  ragged.points({1.f, 2.f});
+  expectStatus(ragged, msg::STATUS_INVALID_ARGUMENT, "points not x y z");
+  msg::QueryRequest ray;
+  ray.kind(msg::QUERY_RAY);
+  ray.max_range(10);
+  expectStatus(ray, msg::STATUS_INVALID_ARGUMENT, "zero ray direction");
+  msg::QueryRequest save;
+  save.kind(msg::QUERY_SAVE);
+  save.path("/tmp/map.txt");
+  expectStatus(save, msg::STATUS_INVALID_ARGUMENT, "save with a wrong extension");
+  save.path("/proc/densemap/map.bt");
+  expectStatus(save, msg::STATUS_FAILED, "save to an unwritable place");
+  msg::QueryRequest layer;
+  layer.kind(msg::QUERY_STATS);
+  layer.layer(static_cast<msg::MapLayer>(7));
+  expectStatus(layer, msg::STATUS_INVALID_ARGUMENT, "unknown layer");
+  // Still serving, map untouched.
+  expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+  EXPECT_EQ(h_->server->statistics().queries_failed(), 8u);
+}
+
+TEST_F(BadInput, ClearBoxAndResetChangeOnlyWhatTheyAsk) {
+  start(135);
+  const auto before = h_->stats().stats();
+  auto clear = client::boxRequest(msg::QUERY_CLEAR_BOX, {-12, -3, -1}, {-8, 3, 3});
+  const auto r = h_->query->call(clear, 30s);
+  ASSERT_EQ(r.status(), msg::STATUS_OK) << r.message();
+  auto offline = offlineMap<map::GridMap>(accepted_, 0.2);
+  geometry::VoxelKey lo, hi;
+  offline->converter().toKey(geometry::Vec3f(-12, -3, -1), lo);
+  offline->converter().toKey(geometry::Vec3f(-8, 3, 3), hi);
+  const std::size_t erased = offline->eraseBox(lo, hi);
+  EXPECT_GT(erased, 0u);
+  EXPECT_EQ(r.cells_changed(), erased);
+  expectServedEquals(*h_, *offline);
+  msg::QueryRequest reset;
+  reset.kind(msg::QUERY_RESET);
+  const auto rr = h_->query->call(reset, 30s);
+  ASSERT_EQ(rr.status(), msg::STATUS_OK) << rr.message();
+  EXPECT_EQ(rr.cells_changed(), before.known_cells() - erased);
+  EXPECT_EQ(h_->stats().stats().known_cells(), 0u);
+}
+
+}  // namespace
+}  // namespace densemap::test
