@@ -1,11 +1,45 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs the main job on the built-in simulated source (or on a
-# dataset given as the first argument), printing what happened.
+# The main job: installs what is missing, builds, starts densemap-server, replays the built-in simulated
+# LiDAR (or the dataset given as the first argument) as a robot at 10 Hz, runs a few queries, renders a
+# PNG, saves the map, prints a summary, and stops everything it started.
+#   ./tools/demo.sh                         # simulator
+#   ./tools/demo.sh ../shared/data/kitti00  # any source densemap-replay reads
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/tools/install-deps.sh"
 "$root/tools/build.sh" > /dev/null
-source="${1:-sim}"
+source="${1:-sim:scans=30}"
+domain="${DENSEMAP_DOMAIN:-42}"
 out="$root/out"
 mkdir -p "$out"
-"$root/build/tools/densemap-map" --source "$source" --resolution 0.2 --output "$out/demo_map.bt"
+bin="$root/build"
+dds=(--domain "$domain" --loopback)
+
+echo "== starting densemap-server on DDS domain $domain (loopback; log in out/server.log)"
+"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" \
+  > "$out/server.log" 2>&1 &
+server=$!
+trap 'kill -INT $server 2>/dev/null || true' EXIT
+
+echo "== replaying $source as robot-0 at 10 Hz"
+"$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --summary-json "$out/replay.json"
+
+echo "== queries"
+query() { "$bin/client/densemap-query" "${dds[@]}" "$@"; }
+query stats
+echo "-- three points (probability, state): on the road, 1 m above it, far away"
+query points 0,0,-0.1 0,0,1 0,500,1
+echo "-- first occupied cell straight down from (0,0,1.7), and along +y:"
+query ray --origin 0,0,1.7 --direction 0,0,-1 --max-range 10
+query ray --origin 0,0,1.7 --direction 0,1,0 --max-range 60 --ignore-unknown
+echo "-- occupied cells in a 10 m box around the origin:"
+query box --min -5,-5,-1 --max 5,5,4 | head -1
+query render --output "$out/demo_map.png" --height 1.0
+
+echo "== stopping the server (SIGINT: drains its queues and saves the map)"
+kill -INT "$server"
+wait "$server"
+trap - EXIT
+tail -n 3 "$out/server.log"
+echo "== done: out/demo_map.png (left: occupied cells from above by height; right: probability at z = 1 m),"
+echo "   out/demo_map.bt (open with octovis), out/replay.json (counts and latencies), out/server.log"

@@ -40,13 +40,25 @@ QueryClient::~QueryClient() {
 }
 
 bool QueryClient::waitForServer(std::chrono::milliseconds timeout) {
+  // Matching is not symmetric: our endpoints may know the server's before the server's know ours, and
+  // until then requests or replies are lost. A cheap probe (an empty point query) that comes back proves
+  // both directions work.
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
     dds::PublicationMatchedStatus pub;
     dds::SubscriptionMatchedStatus sub;
     writer_->get_publication_matched_status(pub);
     reader_->get_subscription_matched_status(sub);
-    if (pub.current_count > 0 && sub.current_count > 0) return true;
+    if (pub.current_count > 0 && sub.current_count > 0) {
+      msg::QueryRequest probe;
+      probe.kind(msg::QUERY_POINTS);
+      try {
+        call(probe, std::chrono::milliseconds(250));
+        return true;
+      } catch (const QueryTimeout&) {
+        continue;
+      }
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;

@@ -44,13 +44,23 @@ ScanPublisher::~ScanPublisher() {
 }
 
 bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
+  // Matching is not symmetric: the server's reader may not know our writer yet when ours knows it, and a
+  // scan sent then would be lost. A statistics message from the server shows it has discovered us (or,
+  // with statistics switched off, a grace period after matching does).
   const auto deadline = std::chrono::steady_clock::now() + timeout;
+  std::optional<std::chrono::steady_clock::time_point> matched_at;
   while (std::chrono::steady_clock::now() < deadline) {
     dds::PublicationMatchedStatus pub;
     dds::SubscriptionMatchedStatus sub;
     writer_->get_publication_matched_status(pub);
     ack_reader_->get_subscription_matched_status(sub);
-    if (pub.current_count > 0 && sub.current_count > 0) return true;
+    if (pub.current_count > 0 && sub.current_count > 0) {
+      if (!matched_at) matched_at = std::chrono::steady_clock::now();
+      if (lastStatistics() ||
+          std::chrono::steady_clock::now() - *matched_at > std::chrono::milliseconds(2500)) {
+        return true;
+      }
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;

@@ -81,10 +81,11 @@ bool Pipeline::submit(ScanJob job) {
 
 std::optional<ScanJob> Pipeline::nextRoundRobin() {
   std::lock_guard lock(robots_mutex_);
+  // next_robot_ is one past the robot served last (not wrapped, so a robot added since is next in turn).
   for (std::size_t n = 0; n < order_.size(); ++n) {
-    Robot* r = order_[(next_robot_ + n) % order_.size()];
-    if (auto job = r->queue.tryPop()) {
-      next_robot_ = (next_robot_ + n + 1) % order_.size();
+    const std::size_t i = (next_robot_ + n) % order_.size();
+    if (auto job = order_[i]->queue.tryPop()) {
+      next_robot_ = i + 1;
       return job;
     }
   }

@@ -1,0 +1,111 @@
+// The programs as a user runs them: densemap-server in its own process, densemap-replay and densemap-query
+// against it, then SIGTERM: a clean exit that saves the map.
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+#include <nlohmann/json.hpp>
+
+extern char** environ;
+
+namespace densemap::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+/// Runs a command, returns its exit status and standard output.
+std::pair<int, std::string> run(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  if (pipe == nullptr) return {-1, out};
+  std::array<char, 4096> buf;
+  while (std::fgets(buf.data(), buf.size(), pipe) != nullptr) out += buf.data();
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+pid_t spawn(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return rc == 0 ? pid : -1;
+}
+
+TEST(ServiceProcesses, EveryToolHasHelp) {
+  for (const char* tool : {DENSEMAP_SERVER_BINARY, DENSEMAP_REPLAY_BINARY, DENSEMAP_QUERY_BINARY}) {
+    const auto [rc, out] = run(std::string(tool) + " --help");
+    EXPECT_EQ(rc, 0) << tool;
+    EXPECT_NE(out.find("--domain"), std::string::npos) << tool << " --help must document --domain";
+  }
+}
+
+TEST(ServiceProcesses, ReplayQueryAndCleanShutdownThatSavesTheMap) {
+  const auto dir = std::filesystem::temp_directory_path() / "densemap_test_140";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string saved = (dir / "map.bt").string(), summary = (dir / "summary.json").string();
+  const pid_t server = spawn({DENSEMAP_SERVER_BINARY, "--domain", "140", "--loopback", "--statistics-period",
+                              "0.2", "--save-on-exit", saved});
+  ASSERT_GT(server, 0);
+  const std::string dds = " --domain 140 --loopback";
+  const auto [replay_rc, replay_out] =
+      run(std::string(DENSEMAP_REPLAY_BINARY) + dds +
+          " --source sim:scans=4,beams=16,columns=256 --rate 20 --summary-json " + summary);
+  EXPECT_EQ(replay_rc, 0) << replay_out;
+  std::ifstream f(summary);
+  ASSERT_TRUE(f) << "no summary written";
+  const auto s = nlohmann::json::parse(f);
+  EXPECT_EQ(s.at("scans_sent"), 4);
+  EXPECT_EQ(s.at("scans_processed"), 4);
+  EXPECT_EQ(s.at("scans_dropped"), 0);
+  EXPECT_EQ(s.at("scans_rejected"), 0);
+  EXPECT_GT(s.at("latency_p50_ms").get<double>(), 0.0);
+
+  const auto [query_rc, query_out] = run(std::string(DENSEMAP_QUERY_BINARY) + dds + " --json stats");
+  ASSERT_EQ(query_rc, 0) << query_out;
+  const auto stats = nlohmann::json::parse(query_out);
+  EXPECT_EQ(stats.at("map_version"), 4);
+  const std::uint64_t known = stats.at("known_cells");
+  EXPECT_GT(known, 1000u);
+  const std::string png = (dir / "map.png").string();
+  const auto [render_rc, render_out] =
+      run(std::string(DENSEMAP_QUERY_BINARY) + dds + " render --output " + png);
+  EXPECT_EQ(render_rc, 0) << render_out;
+  EXPECT_GT(std::filesystem::file_size(png), 1000u);
+
+  ASSERT_EQ(kill(server, SIGTERM), 0);
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(server, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(WIFEXITED(status)) << "the server did not exit within 30 s of SIGTERM";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(saved)) << "the map was not saved on exit";
+  std::size_t leaves = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    const std::size_t side = std::size_t{1} << (16 - it.getDepth());
+    leaves += side * side * side;
+  }
+  EXPECT_EQ(leaves, known);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace densemap::test
