@@ -35,7 +35,8 @@ int main(int argc, char** argv) {
   std::string source = "sim", scans, prefix = "robot", offset_text = "0,0,0", summary_json,
               log_level = "info";
   int robots = 1, loops = 1, query_clients = 0;
-  double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0;
+  double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
+  std::string center_text = "0,0,0";
   std::size_t query_points = 1000;
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
@@ -48,9 +49,10 @@ int main(int argc, char** argv) {
          ".graph")
       ->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--robots", robots, "robots publishing the source at once")
+  app.add_option("--robots", robots,
+                 "robots publishing the source at once (0: only run --query-clients for --duration)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
+      ->check(CLI::Range(0, 1000));
   app.add_option("--robot-prefix", prefix, "robot ids are PREFIX-0, PREFIX-1, ...")->capture_default_str();
   app.add_option("--robot-offset", offset_text, "robot k's scans are shifted by k times this x,y,z (metres)")
       ->capture_default_str();
@@ -68,6 +70,13 @@ int main(int argc, char** argv) {
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
+  app.add_option("--duration", duration_s, "with --robots 0: seconds the query clients run")
+      ->capture_default_str();
+  app.add_option("--query-center", center_text, "with --robots 0: query points are drawn around x,y,z")
+      ->capture_default_str();
+  app.add_option("--query-rate", query_rate,
+                 "queries per second per client (0: back to back, for throughput)")
+      ->capture_default_str();
   app.add_option("--query-radius", query_radius, "query points are drawn within this many metres of robot 0")
       ->capture_default_str();
   app.add_option("--summary-json", summary_json, "write a JSON summary (counts, latencies) to this file");
@@ -81,12 +90,14 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--robot-offset must be x,y,z");
     }
     const Eigen::Vector3d offset(ox, oy, oz);
-    auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans, src->size());
-    spdlog::info("source: {}", src->describe());
     // Read every scan first, so file reading never slows the publishing rate down.
     std::vector<io::Scan> data;
-    {
+    std::string described = "none (query clients only)";
+    if (robots > 0) {
+      auto src = io::openSource(source);
+      const auto range = cli::parseScanRange(scans, src->size());
+      described = src->describe();
+      spdlog::info("source: {}", described);
       cli::Progress progress("reading", range.last - range.first + 1);
       for (std::size_t i = range.first; i <= range.last; ++i) {
         data.push_back(src->read(i));
@@ -105,11 +116,22 @@ int main(int argc, char** argv) {
     }
     std::set<std::string> ids;
     for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(k));
+    // The server counts per robot id over its lifetime: report this run's part.
+    const auto before = publisher.lastStatistics();
+    const client::RobotTotals base = before ? client::totalsFor(*before, ids) : client::RobotTotals{};
 
     // Query clients: point queries around robot 0's latest position, timed end to end.
     std::atomic<bool> replaying{true};
     std::array<std::atomic<float>, 3> robot0{};
-    for (auto& v : robot0) v = 0.0f;
+    {
+      float cx = 0, cy = 0, cz = 0;
+      if (std::sscanf(center_text.c_str(), "%f,%f,%f", &cx, &cy, &cz) != 3) {
+        throw std::invalid_argument("--query-center must be x,y,z");
+      }
+      robot0[0] = cx;
+      robot0[1] = cy;
+      robot0[2] = cz;
+    }
     std::mutex query_mutex;
     std::vector<double> query_ms;
     std::atomic<std::uint64_t> query_failures{0};
@@ -128,7 +150,13 @@ int main(int argc, char** argv) {
                                                 static_cast<float>(query_radius));
         std::uniform_real_distribution<float> uz(-2.0f, 3.0f);
         std::vector<double> mine;
+        auto next = Clock::now();
         while (replaying) {
+          if (query_rate > 0) {
+            next +=
+                std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / query_rate));
+            std::this_thread::sleep_until(next);
+          }
           msg::QueryRequest rq;
           rq.kind(msg::QUERY_POINTS);
           rq.points().resize(3 * query_points);
@@ -191,17 +219,22 @@ int main(int argc, char** argv) {
       });
     }
     for (auto& t : robot_threads) t.join();
+    if (robots == 0) std::this_thread::sleep_for(std::chrono::duration<double>(duration_s));
     const double publish_s = std::chrono::duration<double>(Clock::now() - t_start).count();
     const client::AckCounts acks = publisher.waitForAcks(ids, sent, wait);
     replaying = false;
     for (auto& t : query_threads) t.join();
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
     // The server's own count, from its statistics (published once a second).
-    const auto stats = publisher.waitForStatistics(ids, sent, std::chrono::milliseconds(3000));
-    const client::RobotTotals server = stats ? client::totalsFor(*stats, ids) : client::RobotTotals{};
+    const auto stats = publisher.waitForStatistics(ids, sent + base.processed + base.dropped + base.rejected,
+                                                   std::chrono::milliseconds(3000));
+    client::RobotTotals server = stats ? client::totalsFor(*stats, ids) : client::RobotTotals{};
+    server.processed -= std::min(server.processed, base.processed);
+    server.dropped -= std::min(server.dropped, base.dropped);
+    server.rejected -= std::min(server.rejected, base.rejected);
     const auto lat = publisher.latenciesMs(ids);
 
-    nlohmann::json j = {{"source", src->describe()},
+    nlohmann::json j = {{"source", described},
                         {"robots", robots},
                         {"rate_hz", rate * speed},
                         {"scans_sent", sent.load()},
@@ -219,10 +252,17 @@ int main(int argc, char** argv) {
                         {"publish_seconds", publish_s},
                         {"total_seconds", total_s},
                         {"server_statistics", stats.has_value()}};
+    if (stats) {
+      for (const auto& st : stats->stages()) {
+        j["server_stage_" + st.name() + "_p50_ms"] = st.latency_p50_ms();
+        j["server_stage_" + st.name() + "_p99_ms"] = st.latency_p99_ms();
+      }
+    }
     if (query_clients > 0) {
       const double points = static_cast<double>(query_ms.size() * query_points);
       j["query_clients"] = query_clients;
       j["query_points"] = query_points;
+      j["query_rate_hz"] = query_rate;
       j["queries"] = query_ms.size();
       j["query_failures"] = query_failures.load();
       j["query_p50_ms"] = percentile(query_ms, 0.5);

@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--update-threads", o.update_threads, "threads of the map update (0 = all cores)")
       ->capture_default_str();
+  app.add_option("--update-nice", o.update_nice,
+                 "nice value of the update threads (0-19); above 0 queries get a core sooner")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 19));
   app.add_option("--statistics-period", o.statistics_period_s, "seconds between statistics messages (0: off)")
       ->capture_default_str();
   app.add_option("--save-on-exit", o.save_on_exit, "save the map here (.bt/.ot) when shutting down");

@@ -1,5 +1,7 @@
 #include "densemap/server/mapping_server.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -27,7 +29,7 @@ class MappingServer::Listener : public dds::DataReaderListener {
     if (reader == s_.scan_reader_) {
       s_.scans_ready_.notify_one();
     } else {
-      s_.queries_ready_.notify_all();
+      s_.takeQueries();
     }
   }
   void on_subscription_matched(dds::DataReader* reader, const dds::SubscriptionMatchedStatus& info) override {
@@ -91,7 +93,7 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   store_ = std::make_unique<MapStore>(makeMap(options_.map));
   query_service_ = std::make_unique<QueryService>(*store_, options_.queries);
   std::vector<std::unique_ptr<PipelineStage>> stages;
-  stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update));
+  stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, options_.update_nice));
   pipeline_ = std::make_unique<Pipeline>(
       options_.pipeline, std::move(stages),
       [this](const ScanJob& j, ScanOutcome o, const std::string& why) { onOutcome(j, o, why); });
@@ -129,6 +131,9 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
 MappingServer::~MappingServer() { stop(); }
 
 void MappingServer::ingestLoop() {
+  // Taking and converting scans is bulk work, like the update: same priority (see update_nice).
+  if (options_.update_nice > 0)
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), options_.update_nice);
   msg::Scan m;
   dds::SampleInfo info;
   while (running_) {
@@ -149,18 +154,45 @@ void MappingServer::ingestLoop() {
   }
 }
 
-void MappingServer::queryLoop() {
+namespace {
+/// Queries cheap enough to answer on DDS's receive thread (saves a thread hand-over, ~the round trip's
+/// tail on a loaded machine); the rest go to the query threads.
+bool answerInline(const msg::QueryRequest& rq) {
+  return (rq.kind() == msg::QUERY_POINTS && rq.points().size() <= 3 * 20'000) || rq.kind() == msg::QUERY_RAY;
+}
+}  // namespace
+
+void MappingServer::takeQueries() {
   msg::QueryRequest rq;
   dds::SampleInfo info;
-  while (queries_running_) {
-    if (query_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
+  while (query_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
+    if (!info.valid_data) continue;
+    if (answerInline(rq)) {
       msg::QueryReply rp = query_service_->answer(rq);
       reply_writer_->write(&rp);
-      continue;
+    } else {
+      {
+        std::lock_guard lock(wake_mutex_);
+        query_backlog_.push_back(std::move(rq));
+      }
+      queries_ready_.notify_one();
+      rq = msg::QueryRequest();
     }
-    std::unique_lock lock(wake_mutex_);
-    queries_ready_.wait_for(lock, 20ms);
+  }
+}
+
+void MappingServer::queryLoop() {
+  for (;;) {
+    msg::QueryRequest rq;
+    {
+      std::unique_lock lock(wake_mutex_);
+      queries_ready_.wait(lock, [&] { return !query_backlog_.empty() || !queries_running_; });
+      if (query_backlog_.empty()) return;
+      rq = std::move(query_backlog_.front());
+      query_backlog_.pop_front();
+    }
+    msg::QueryReply rp = query_service_->answer(rq);
+    reply_writer_->write(&rp);
   }
 }
 
@@ -211,6 +243,17 @@ msg::ServerStatistics MappingServer::statistics() const {
     st.latency_max_ms(c.latency.max_ms);
     s.stages().push_back(std::move(st));
   }
+  {
+    // Queries as a pseudo-stage: how long answering takes inside the server (lock waits included).
+    const LatencySummary q = query_service_->latency();
+    msg::StageStatistics st;
+    st.name("queries");
+    st.processed(query_service_->answered() + query_service_->failed());
+    st.latency_p50_ms(q.p50_ms);
+    st.latency_p99_ms(q.p99_ms);
+    st.latency_max_ms(q.max_ms);
+    s.stages().push_back(std::move(st));
+  }
   // Cheap map figures only (the periodic message must not hold the map for a full iteration).
   store_->read([&](const map::OccupancyMap& m, std::uint64_t version) {
     s.map_stats().backend(m.backendName());
@@ -249,14 +292,20 @@ void MappingServer::statisticsLoop() {
       dropped += r.dropped();
       rejected += r.rejected();
     }
-    if (processed != last_logged) {  // log while something happens, stay quiet when idle
+    const std::uint64_t activity = processed + rejected + dropped + s.queries_answered() + s.queries_failed();
+    if (activity != last_logged) {  // log while something happens, stay quiet when idle
+      std::string stages;
+      for (const auto& st : s.stages()) {
+        stages +=
+            fmt::format("; {} p50 {:.1f} p99 {:.1f} ms", st.name(), st.latency_p50_ms(), st.latency_p99_ms());
+      }
       spdlog::info(
           "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms "
-          "p99 {:.1f} ms; map {:.1f} MB; {} queries",
+          "p99 {:.1f} ms; map {:.1f} MB; {} queries{}",
           s.robots().size(), received, processed, dropped, rejected, s.publish_to_map_p50_ms(),
           s.publish_to_map_p99_ms(), static_cast<double>(s.map_stats().memory_bytes()) / 1e6,
-          s.queries_answered());
-      last_logged = processed;
+          s.queries_answered(), stages);
+      last_logged = activity;
     }
   }
 }
@@ -289,7 +338,10 @@ void MappingServer::stop() {
     stats_writer_->write(&s);
   }
   stopped_ = true;
-  queries_running_ = false;
+  {
+    std::lock_guard lock(wake_mutex_);
+    queries_running_ = false;  // the threads finish the backlog first
+  }
   queries_ready_.notify_all();
   for (auto& t : query_threads_) {
     if (t.joinable()) t.join();

@@ -1,10 +1,20 @@
 #include "densemap/server/occupancy_stage.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include "densemap/msg/dds_node.h"
 
 namespace densemap::server {
 
 StageResult OccupancyStage::process(ScanJob& job) {
+  if (!niced_ && nice_ > 0) {
+    // This thread and the OpenMP workers it drives (the pool persists between parallel regions).
+#pragma omp parallel
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), nice_);
+    niced_ = true;
+  }
   const std::vector<geometry::Vec3f> world = job.scan.worldPoints();
   std::uint64_t version = 0;
   const auto stats =

@@ -1,5 +1,6 @@
 #include "densemap/server/query_service.h"
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -75,6 +76,7 @@ msg::MapStatistics mapStatistics(const map::OccupancyMap& map, std::uint64_t ver
 }
 
 msg::QueryReply QueryService::answer(const msg::QueryRequest& rq) {
+  const auto t0 = std::chrono::steady_clock::now();
   msg::QueryReply rp;
   rp.client_id(rq.client_id());
   rp.request_id(rq.request_id());
@@ -123,6 +125,7 @@ msg::QueryReply QueryService::answer(const msg::QueryRequest& rq) {
     rp.status(msg::STATUS_FAILED);
     rp.message(e.what());
   }
+  latency_.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   if (rp.status() == msg::STATUS_OK) {
     ++answered_;
   } else {

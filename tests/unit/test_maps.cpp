@@ -74,6 +74,52 @@ TEST_F(SimMaps, GridAndOctreeHoldTheSameCells) {
   EXPECT_GT(compared, 10000u);
 }
 
+TEST_F(SimMaps, PublishedApplyEqualsInPlaceApplyAndChangesNothingBeforePublishing) {
+  GridMap in_place(0.2), published(0.2);
+  update::UpdateEngine a, b;
+  for (std::size_t i = 0; i < sim.size(); ++i) {
+    const io::Scan s = sim.read(i);
+    ASSERT_TRUE(a.insert(in_place, s.worldPoints(), s.origin()));
+    const std::size_t cells_before = published.knownCells();
+    bool published_once = false;
+    ASSERT_TRUE(b.insert(published, s.worldPoints(), s.origin(), [&](const std::function<void()>& commit) {
+      // Until the commit, readers see the previous scan's map.
+      EXPECT_EQ(published.knownCells(), cells_before);
+      commit();
+      published_once = true;
+    }));
+    EXPECT_TRUE(published_once);
+    std::string why;
+    ASSERT_TRUE(in_place.identical(published, &why)) << "after scan " << i << ": " << why;
+  }
+}
+
+TEST_F(SimMaps, EraseBoxForgetsExactlyTheBoxOnBothBackends) {
+  GridMap grid(0.3);
+  OctreeMap octree(0.3);
+  update::UpdateEngine engine;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const io::Scan s = sim.read(i);
+    engine.insert(grid, s.worldPoints(), s.origin());
+    engine.insert(octree, s.worldPoints(), s.origin());
+  }
+  geometry::VoxelKey lo, hi;
+  grid.converter().toKey(geometry::Vec3f(-12, -4, -1), lo);
+  grid.converter().toKey(geometry::Vec3f(-6, 4, 2), hi);
+  std::size_t inside = 0;
+  grid.forEachCellInBox(lo, hi, [&](const geometry::VoxelKey&, float) { ++inside; });
+  ASSERT_GT(inside, 100u);
+  const std::size_t before = grid.knownCells();
+  EXPECT_EQ(grid.eraseBox(lo, hi), inside);
+  EXPECT_EQ(octree.eraseBox(lo, hi), inside);
+  EXPECT_EQ(grid.knownCells(), before - inside);
+  EXPECT_EQ(octree.knownCells(), before - inside);
+  grid.forEachCell([&](const geometry::VoxelKey& k, float v) {
+    EXPECT_FALSE(OccupancyMap::inBox(k, lo, hi));
+    EXPECT_EQ(octree.logOdds(k), v);
+  });
+}
+
 TEST_F(SimMaps, IdenticalDetectsASingleDifference) {
   GridMap a(0.3), b(0.3);
   update::UpdateEngine engine;

@@ -47,6 +47,62 @@ void GridMap::apply(const ScanEvidence& evidence) {
   }
 }
 
+void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publish) {
+  // Stage: a copy of every block the scan changes (readers keep seeing the originals).
+  struct Staged {
+    std::uint64_t id;
+    const EvidenceBlock* eb;
+    std::unique_ptr<Block> copy;
+  };
+  std::vector<Staged> staged;
+  staged.reserve(evidence.blockCount());
+  evidence.forEachBlock([&](const EvidenceBlock& eb) {
+    if (!eb.hasEvidence()) return;
+    std::unique_ptr<Block> copy;
+    if (!spare_.empty()) {
+      copy = std::move(spare_.back());
+      spare_.pop_back();
+    } else {
+      copy = std::make_unique<Block>();
+    }
+    staged.push_back({blockId(eb.base), &eb, std::move(copy)});
+  });
+  const LogOdds& lo = log_odds_;
+#pragma omp parallel for schedule(static)
+  for (std::size_t w = 0; w < staged.size(); ++w) {
+    Staged& s = staged[w];
+    auto it = blocks_.find(s.id);  // read-only lookups: safe in parallel
+    if (it != blocks_.end()) {
+      s.copy->value = it->second->value;
+    } else {
+      s.copy->value.fill(std::numeric_limits<float>::quiet_NaN());
+    }
+    s.eb->forEachEvidenceVoxel([&](int i) {
+      const auto [nf, nh] = evidence.counts(*s.eb, i);
+      float& v = s.copy->value[static_cast<std::size_t>(i)];
+      v = updatedValue(v, nf, nh, lo);
+    });
+  }
+  // Publish: swap the copies in (the old blocks become spares for the next scan).
+  publish([&] {
+    for (Staged& s : staged) {
+      auto& slot = blocks_[s.id];
+      std::swap(slot, s.copy);
+    }
+    if (evidence.overflowCount() > 0) {
+      evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
+        auto& slot = blocks_[blockId(k)];
+        if (!slot) slot = std::make_unique<Block>();
+        float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
+        v = updatedValue(v, nf, nh, lo);
+      });
+    }
+  });
+  for (Staged& s : staged) {
+    if (s.copy) spare_.push_back(std::move(s.copy));
+  }
+}
+
 const GridMap::Block* GridMap::findBlock(const VoxelKey& key) const {
   auto it = blocks_.find(blockId(key));
   return it == blocks_.end() ? nullptr : it->second.get();

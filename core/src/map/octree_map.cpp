@@ -259,13 +259,77 @@ void OctreeMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
   }
 }
 
-std::size_t OctreeMap::eraseBox(const VoxelKey& lo, const VoxelKey& hi) {
-  std::vector<VoxelKey> keys;
-  forEachCellInBox(lo, hi, [&](const VoxelKey& k, float) { keys.push_back(k); });
-  // deleteNode expands pruned leaves as needed; inner nodes are recomputed once afterwards.
-  for (const VoxelKey& k : keys) tree_->deleteNode(octomap::OcTreeKey(k[0], k[1], k[2]));
-  if (!keys.empty()) tree_->updateInnerOccupancy();
-  return keys.size();
+namespace {
+// octomap keeps a node's child array protected (friend: OcTreeBaseImpl only); a pointer to the member
+// named through a derived class is the standard-conforming way to reach it.
+struct ChildArrayAccess : octomap::OcTreeNode {
+  static constexpr auto member() { return &ChildArrayAccess::children; }
+};
+}  // namespace
+
+std::size_t CountedOcTree::countCells(const octomap::OcTreeNode* node, unsigned depth) const {
+  if (!nodeHasChildren(node)) {
+    const std::size_t side = std::size_t{1} << (kTreeDepth - depth);
+    return side * side * side;
+  }
+  std::size_t n = 0;
+  for (unsigned i = 0; i < 8; ++i) {
+    if (nodeChildExists(node, i)) n += countCells(getNodeChild(node, i), depth + 1);
+  }
+  return n;
+}
+
+std::size_t CountedOcTree::eraseRecurs(octomap::OcTreeNode* node, unsigned depth,
+                                       const octomap::OcTreeKey& base, const octomap::OcTreeKey& lo,
+                                       const octomap::OcTreeKey& hi, bool& emptied) {
+  const unsigned half = 1u << (kTreeDepth - depth - 1);
+  if (!nodeHasChildren(node)) expandNode(node);  // a pruned leaf crossing the box
+  octomap::AbstractOcTreeNode**& children = node->*ChildArrayAccess::member();
+  std::size_t erased = 0;
+  for (unsigned i = 0; i < 8; ++i) {
+    if (children[i] == nullptr) continue;
+    octomap::OcTreeKey cb = base;
+    bool inside = true, disjoint = false;
+    for (unsigned a = 0; a < 3; ++a) {
+      cb[a] = static_cast<octomap::key_type>(base[a] + ((i >> a) & 1u) * half);
+      const unsigned c_lo = cb[a], c_hi = cb[a] + half - 1;
+      inside &= c_lo >= lo[a] && c_hi <= hi[a];
+      disjoint |= c_hi < lo[a] || c_lo > hi[a];
+    }
+    if (disjoint) continue;
+    auto* child = static_cast<octomap::OcTreeNode*>(children[i]);
+    bool child_emptied = inside;
+    if (inside) {
+      erased += countCells(child, depth + 1);
+    } else {
+      erased += eraseRecurs(child, depth + 1, cb, lo, hi, child_emptied);
+    }
+    if (child_emptied) {
+      deleteNodeRecurs(child);  // frees the whole subtree, child arrays included
+      children[i] = nullptr;
+    }
+  }
+  emptied = !nodeHasChildren(node);
+  if (emptied) {
+    delete[] children;
+    children = nullptr;
+  } else {
+    node->updateOccupancyChildren();
+  }
+  return erased;
+}
+
+std::size_t CountedOcTree::eraseBox(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi) {
+  if (root == nullptr) return 0;
+  bool emptied = false;
+  const std::size_t erased = eraseRecurs(root, 0, octomap::OcTreeKey(0, 0, 0), lo, hi, emptied);
+  if (emptied) {
+    deleteNodeRecurs(root);
+    root = nullptr;
+  }
+  tree_size = root == nullptr ? 0 : calcNumNodes();
+  size_changed = true;
+  return erased;
 }
 
 bool identicalTrees(const octomap::OcTree& a, const octomap::OcTree& b, std::string* why) {

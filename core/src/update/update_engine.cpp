@@ -182,7 +182,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.
   if (!counting) ev.resolveOccupiedWins();
   if (wrap) {
-    wrap([&] { map.apply(ev); });
+    map.applyPublished(ev, wrap);
   } else {
     map.apply(ev);
   }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 #include <unordered_map>
+#include <vector>
 
 #include "densemap/map/occupancy_map.h"
 
@@ -23,6 +24,8 @@ class GridMap : public OccupancyMap {
 
   std::string backendName() const override { return "grid"; }
   void apply(const ScanEvidence& evidence) override;
+  /// Copy-on-write per block: the scan's blocks are updated in copies, then swapped in by `publish`.
+  void applyPublished(const ScanEvidence& evidence, const Publisher& publish) override;
   std::optional<float> logOdds(const VoxelKey& key) const override;
   bool isFullyFree(const VoxelKey& key) const override;
   std::size_t knownCells() const override;
@@ -47,6 +50,7 @@ class GridMap : public OccupancyMap {
         .packed();
   }
   std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
+  std::vector<std::unique_ptr<Block>> spare_;  // blocks swapped out by applyPublished, reused as copies
 };
 
 }  // namespace densemap::map

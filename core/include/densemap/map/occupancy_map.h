@@ -24,6 +24,17 @@ class OccupancyMap {
   /// Applies one scan's evidence (Eq. 2.2 with clamping) under the given semantics' counts.
   virtual void apply(const ScanEvidence& evidence) = 0;
 
+  /// Publishes the map's write of a scan: runs `commit` (which changes what readers see) inside `publish`,
+  /// e.g. under an exclusive lock that readers share.
+  using Publisher = std::function<void(const std::function<void()>& commit)>;
+
+  /// apply(), for maps read concurrently: work that does not change what readers see (computing the new
+  /// cell values) happens before `publish`, so readers are held up only by the final swap. The default
+  /// runs the whole apply() inside `publish`.
+  virtual void applyPublished(const ScanEvidence& evidence, const Publisher& publish) {
+    publish([&] { apply(evidence); });
+  }
+
   /// Log-odds of the cell, or nullopt when it was never observed.
   virtual std::optional<float> logOdds(const VoxelKey& key) const = 0;
 

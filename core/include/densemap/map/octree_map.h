@@ -23,6 +23,16 @@ class CountedOcTree : public octomap::OcTree {
     tree_size += delta;
     size_changed = true;
   }
+
+  /// Deletes every leaf cell with lo <= key <= hi (pruned leaves crossing the box are expanded first) and
+  /// recomputes the inner nodes on the way up; returns the number of finest-resolution cells removed.
+  /// (octomap's deleteNode() aborts on its own assertion when a node loses its last child.)
+  std::size_t eraseBox(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi);
+
+ private:
+  std::size_t eraseRecurs(octomap::OcTreeNode* node, unsigned depth, const octomap::OcTreeKey& base,
+                          const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi, bool& emptied);
+  std::size_t countCells(const octomap::OcTreeNode* node, unsigned depth) const;
 };
 
 class OctreeMap : public OccupancyMap {
@@ -38,7 +48,9 @@ class OctreeMap : public OccupancyMap {
   void forEachCell(const std::function<void(const VoxelKey&, float)>& f) const override;
   void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
                         const std::function<void(const VoxelKey&, float)>& f) const override;
-  std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
+  std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override {
+    return tree_->eraseBox(octomap::OcTreeKey(lo[0], lo[1], lo[2]), octomap::OcTreeKey(hi[0], hi[1], hi[2]));
+  }
   void clear() override { tree_->clear(); }
 
   octomap::OcTree& tree() { return *tree_; }

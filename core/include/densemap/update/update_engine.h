@@ -68,13 +68,13 @@ class UpdateEngine {
  public:
   explicit UpdateEngine(UpdateOptions options = {});
 
-  /// Runs the final write of a scan into the map (e.g. under a lock that readers share); the scan's
-  /// tracing before it only reads the map.
-  using ApplyWrapper = std::function<void(const std::function<void()>& apply)>;
+  /// Runs the write that makes a scan visible (e.g. under a lock that readers share); the tracing before
+  /// it, and the map's staging of new values (OccupancyMap::applyPublished), only read the map.
+  using ApplyWrapper = map::OccupancyMap::Publisher;
 
   /// Inserts one scan: points and sensor origin in the map's (world) frame. Non-finite points are skipped
   /// and counted; a non-finite or out-of-range origin rejects the whole scan (returns nullopt). The map is
-  /// written once, at the end, through `wrap` when given.
+  /// changed once, at the end, inside `wrap` when given.
   std::optional<UpdateStats> insert(map::OccupancyMap& map, const std::vector<geometry::Vec3f>& points,
                                     const geometry::Vec3f& origin, const ApplyWrapper& wrap = {});
 

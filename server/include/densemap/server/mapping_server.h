@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -38,6 +39,7 @@ class MappingServer {
  private:
   class Listener;
   void ingestLoop();
+  void takeQueries();
   void queryLoop();
   void statisticsLoop();
   void onOutcome(const ScanJob& job, ScanOutcome outcome, const std::string& why);
@@ -63,6 +65,7 @@ class MappingServer {
   std::mutex stop_mutex_;
   bool stopped_ = false;
   std::atomic<bool> queries_running_{true};
+  std::deque<msg::QueryRequest> query_backlog_;  // guarded by wake_mutex_
 };
 
 }  // namespace densemap::server

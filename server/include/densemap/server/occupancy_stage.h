@@ -10,7 +10,10 @@ namespace densemap::server {
 
 class OccupancyStage : public PipelineStage {
  public:
-  OccupancyStage(MapStore& store, update::UpdateOptions options) : store_(store), engine_(options) {}
+  /// `nice` > 0 lowers the priority of the update threads (Linux nice value), so query and DDS threads
+  /// that wake up take a core at once instead of waiting for a time slice.
+  OccupancyStage(MapStore& store, update::UpdateOptions options, int nice = 0)
+      : store_(store), engine_(options), nice_(nice) {}
 
   std::string name() const override { return "occupancy"; }
   StageResult process(ScanJob& job) override;
@@ -20,6 +23,8 @@ class OccupancyStage : public PipelineStage {
  private:
   MapStore& store_;
   update::UpdateEngine engine_;
+  int nice_ = 0;
+  bool niced_ = false;
 };
 
 }  // namespace densemap::server

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "densemap/msg/densemap.h"
+#include "densemap/server/latency_window.h"
 #include "densemap/server/map_store.h"
 
 namespace densemap::server {
@@ -30,6 +31,8 @@ class QueryService {
 
   std::uint64_t answered() const { return answered_.load(); }
   std::uint64_t failed() const { return failed_.load(); }
+  /// Time to answer (inside the server, lock waits included) of recent queries.
+  LatencySummary latency() const { return latency_.summary(); }
 
  private:
   void points(const msg::QueryRequest& rq, msg::QueryReply& rp);
@@ -43,6 +46,7 @@ class QueryService {
   MapStore& store_;
   QueryLimits limits_;
   std::atomic<std::uint64_t> answered_{0}, failed_{0};
+  LatencyWindow latency_;
 };
 
 /// Statistics of a map (iterates every cell: for queries and shutdown reports, not per scan).

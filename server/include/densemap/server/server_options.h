@@ -32,6 +32,9 @@ struct ServerOptions {
   int query_threads = 2;
   /// Threads of the map update (OpenMP); 0 = all cores.
   int update_threads = 0;
+  /// Nice value of the update threads (0..19): above 0, query and DDS threads get a core as soon as they
+  /// wake, at a small cost in update time when the machine is saturated.
+  int update_nice = 0;
   /// Seconds between statistics messages (and log lines); 0 disables them.
   double statistics_period_s = 1.0;
   /// On shutdown: process every queued scan (true) or drop them, counted (false).

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Service benchmark (issue 3's figures), natively on loopback: one densemap-server; one robot replaying a
+# sequence at 10 Hz; query clients in their own process. Prints one JSON summary per run (in out/bench/).
+#   tools/service_bench.sh [SOURCE] [LOOPS]     default: ../shared/data/kitti00, 3 loops (180 scans)
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+source="${1:-$root/../shared/data/kitti00}"
+loops="${2:-3}"
+bin="$root/build"
+out="$root/out/bench"
+mkdir -p "$out"
+domain="${DENSEMAP_DOMAIN:-77}"
+dds=(--domain "$domain" --loopback)
+# DENSEMAP_SERVER_ARGS adds server flags, e.g. "--update-nice 10".
+# shellcheck disable=SC2086
+"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 ${DENSEMAP_SERVER_ARGS:-} > "$out/server.log" 2>&1 &
+server=$!
+trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
+seconds=$(( loops * 6 ))
+
+echo "== 1. one robot at 10 Hz, no queries: every scan processed? publish-to-map latency"
+"$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --loops "$loops" --robot-prefix plain \
+  --summary-json "$out/robot_only.json" --log-level warn
+
+echo "== 2. one robot at 10 Hz + one query client (own process), 1,000-point queries at 100 Hz"
+"$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --loops "$loops" --robot-prefix with-queries \
+  --summary-json "$out/robot_with_queries.json" --log-level warn &
+robot=$!
+sleep 1
+"$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration $(( seconds - 2 )) --query-clients 1 \
+  --query-rate 100 --query-points 1000 --summary-json "$out/query_100hz.json" --log-level warn
+wait $robot
+
+echo "== 3. one robot at 10 Hz + four query clients back to back (throughput)"
+"$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --loops "$loops" --robot-prefix with-load \
+  --summary-json "$out/robot_with_load.json" --log-level warn &
+robot=$!
+sleep 1
+"$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration $(( seconds - 2 )) --query-clients 4 \
+  --query-points 1000 --summary-json "$out/query_4clients.json" --log-level warn
+wait $robot
+
+echo "== 4. the same four clients on the idle server (no scans streaming)"
+"$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration 5 --query-clients 4 --query-points 1000 \
+  --summary-json "$out/query_4clients_idle.json" --log-level warn
+echo "== summaries in $out/*.json"
