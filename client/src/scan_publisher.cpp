@@ -66,7 +66,7 @@ bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
   return false;
 }
 
-bool ScanPublisher::publish(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan) {
+msg::Scan toMessage(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan) {
   msg::Scan m;
   m.robot_id(robot_id);
   m.seq(seq);
@@ -88,15 +88,20 @@ bool ScanPublisher::publish(const std::string& robot_id, std::uint64_t seq, cons
     xyz[3 * i + 1] = scan.points[i].y();
     xyz[3 * i + 2] = scan.points[i].z();
   }
-  msg::LidarGeometry g;
   if (scan.lidar) {
+    msg::LidarGeometry g;
     g.rows(static_cast<std::uint16_t>(scan.lidar->rows));
     g.columns(static_cast<std::uint16_t>(scan.lidar->columns));
     g.fov_up_deg(static_cast<float>(scan.lidar->fov_up_deg));
     g.fov_down_deg(static_cast<float>(scan.lidar->fov_down_deg));
     g.fov_horizontal_deg(static_cast<float>(scan.lidar->fov_horizontal_deg));
+    m.lidar(g);
   }
-  m.lidar(g);
+  return m;
+}
+
+bool ScanPublisher::publish(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan) {
+  msg::Scan m = toMessage(robot_id, seq, scan);
   return publishRaw(m);
 }
 

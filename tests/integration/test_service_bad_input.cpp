@@ -11,21 +11,7 @@ namespace {
 
 /// A well-formed message for scan `s` (sensor frame), to be broken by each case.
 msg::Scan message(const io::Scan& s, const std::string& robot, std::uint64_t seq) {
-  msg::Scan m;
-  m.robot_id(robot);
-  m.seq(seq);
-  m.frame_id("sensor");
-  const Eigen::Vector3d t = s.pose.translation();
-  const auto q = io::quaternionOf(s.pose);
-  m.sensor_pose().px(t.x());
-  m.sensor_pose().py(t.y());
-  m.sensor_pose().pz(t.z());
-  m.sensor_pose().qw(q[0]);
-  m.sensor_pose().qx(q[1]);
-  m.sensor_pose().qy(q[2]);
-  m.sensor_pose().qz(q[3]);
-  for (const auto& p : s.points) m.points().insert(m.points().end(), {p.x(), p.y(), p.z()});
-  return m;
+  return client::toMessage(robot, seq, s);
 }
 
 class BadInput : public ::testing::Test {

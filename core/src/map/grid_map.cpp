@@ -36,15 +36,18 @@ void GridMap::apply(const ScanEvidence& evidence) {
       v = updatedValue(v, nf, nh, lo);
     });
   }
+  applyOverflow(evidence);
+}
+
+void GridMap::applyOverflow(const ScanEvidence& evidence) {
   // Cells recorded outside the scan's box (normally none).
-  if (evidence.overflowCount() > 0) {
-    evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
-      auto& slot = blocks_[blockId(k)];
-      if (!slot) slot = std::make_unique<Block>();
-      float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
-      v = updatedValue(v, nf, nh, lo);
-    });
-  }
+  if (evidence.overflowCount() == 0) return;
+  evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
+    auto& slot = blocks_[blockId(k)];
+    if (!slot) slot = std::make_unique<Block>();
+    float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
+    v = updatedValue(v, nf, nh, log_odds_);
+  });
 }
 
 void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publish) {
@@ -89,14 +92,7 @@ void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publ
       auto& slot = blocks_[s.id];
       std::swap(slot, s.copy);
     }
-    if (evidence.overflowCount() > 0) {
-      evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
-        auto& slot = blocks_[blockId(k)];
-        if (!slot) slot = std::make_unique<Block>();
-        float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
-        v = updatedValue(v, nf, nh, lo);
-      });
-    }
+    applyOverflow(evidence);
   });
   for (Staged& s : staged) {
     if (s.copy) spare_.push_back(std::move(s.copy));

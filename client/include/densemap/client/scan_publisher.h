@@ -75,6 +75,10 @@ class ScanPublisher {
   std::optional<msg::ServerStatistics> stats_;
 };
 
+/// The DDS message for a scan: sensor-frame points (or world-frame points with frame_id "world"), the pose
+/// as position + unit quaternion, the LiDAR geometry when known. publish_ns is set when it is published.
+msg::Scan toMessage(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan);
+
 /// Sum of these robots' counters in a statistics message.
 struct RobotTotals {
   std::uint64_t received = 0, processed = 0, dropped = 0, rejected = 0;

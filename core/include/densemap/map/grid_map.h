@@ -43,6 +43,7 @@ class GridMap : public OccupancyMap {
   std::size_t blockCount() const { return blocks_.size(); }
 
  private:
+  void applyOverflow(const ScanEvidence& evidence);
   static std::uint64_t blockId(const VoxelKey& key) {
     return VoxelKey{{static_cast<geometry::KeyCoord>(key[0] >> kBlockShift),
                      static_cast<geometry::KeyCoord>(key[1] >> kBlockShift),
