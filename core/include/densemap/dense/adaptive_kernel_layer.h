@@ -1,0 +1,39 @@
+// AKIMap (Ch. 3): kernel inference with a bandwidth adapted to every sample. The bandwidth starts as the
+// covariance of the sample's same-label neighbours (Sec. 3.3.3) and is rescaled by the scale that
+// minimises Eq. 3.7 against the targets of Eq. 3.6.
+#pragma once
+
+#include "densemap/dense/kernel_layer.h"
+
+namespace densemap::dense {
+
+struct AdaptiveKernelOptions {
+  KernelLayerOptions layer{};
+  /// Same-label neighbours (the sample included) needed for a covariance; with fewer, the sample gets an
+  /// isotropic bandwidth whose support is half its search radius (then rescaled like the others).
+  int min_neighbours = 4;
+  /// Candidate scales, log-spaced between the smallest (support of half a cell along the longest axis)
+  /// and the largest (support reaching the search radius) for Eq. 3.7's minimisation.
+  int scale_steps = 12;
+  /// Size the initial bandwidth so its support reaches the search radius (the covariance gives its shape).
+  bool support_to_radius = true;
+};
+
+class AdaptiveKernelLayer : public KernelLayer {
+ public:
+  explicit AdaptiveKernelLayer(const AdaptiveKernelOptions& options = {})
+      : KernelLayer(options.layer), adaptive_(options) {}
+  std::string name() const override { return "akimap"; }
+
+  /// Sec. 3.4: the neighbour search radius grows linearly with the distance from the sensor, from the cell
+  /// size at the sensor to the free-sample distance at `max_range`.
+  double searchRadius(float range, double max_range) const;
+
+ protected:
+  void bandwidths(const SampleSet& samples, double max_range, std::vector<Kernel>& out) override;
+
+ private:
+  AdaptiveKernelOptions adaptive_;
+};
+
+}  // namespace densemap::dense

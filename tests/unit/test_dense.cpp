@@ -1,0 +1,171 @@
+// The dense layer (Ch. 3): the sparse kernel, occupancy sampling, the held-out scores, and the BGK and
+// AKIMap layers on a synthetic wall and on la3dm.
+#include <cmath>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "densemap/dense/adaptive_kernel_layer.h"
+#include "densemap/dense/isotropic_kernel_layer.h"
+#include "densemap/eval/classification_metrics.h"
+#include "densemap/eval/held_out.h"
+#include "densemap/map/grid_map.h"
+#include "densemap/update/update_engine.h"
+#include "test_data.h"
+
+namespace densemap::dense {
+namespace {
+
+TEST(SparseKernel, IsOneAtTheCentreZeroFromTheSupportOnAndDecreasing) {
+  EXPECT_FLOAT_EQ(sparseKernel(0.0f), 1.0f);
+  EXPECT_EQ(sparseKernel(1.0f), 0.0f);
+  EXPECT_EQ(sparseKernel(1.5f), 0.0f);
+  EXPECT_NEAR(sparseKernel(0.999f), 0.0f, 1e-6f);  // smooth at the edge of the support
+  float prev = 1.0f;
+  for (float r = 0.01f; r < 1.0f; r += 0.01f) {
+    const float k = sparseKernel(r);
+    EXPECT_LE(k, prev) << "at r = " << r;
+    EXPECT_GE(k, 0.0f);
+    prev = k;
+  }
+}
+
+TEST(OccupancySamples, OneOccupiedPerVoxelFreeSamplesPerSegmentAndTheOrigin) {
+  SamplingOptions o;
+  o.resolution = 0.1;
+  o.free_sample_distance = 0.5;
+  o.one_free_sample_per_voxel = false;
+  const Vec3f origin(0.05f, 0.05f, 0.05f);
+  // Two points in the same voxel 3 m away, one 1.2 m away.
+  const std::vector<Vec3f> pts = {{3.02f, 0.05f, 0.05f}, {3.04f, 0.06f, 0.05f}, {0.05f, 1.25f, 0.05f}};
+  std::mt19937_64 rng(3);
+  const SampleSet s = sampleScan(pts, origin, o, rng);
+  EXPECT_EQ(s.occupiedCount(), 2u);
+  // Free samples: the origin, then per ray ceil((L - 0.05) / 0.5): 6 + 6 + 3.
+  EXPECT_EQ(s.size() - s.occupiedCount(), 1u + 6u + 6u + 3u);
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.occupied[i]) continue;
+    EXPECT_NEAR((s.points[i] - origin).norm(), s.range[i], 1e-4f);
+  }
+  o.max_range = 2.0;  // the 3 m rays are cut: no occupied sample there, free samples up to 2 m
+  rng.seed(3);
+  const SampleSet cut = sampleScan(pts, origin, o, rng);
+  EXPECT_EQ(cut.occupiedCount(), 1u);
+  for (std::size_t i = 0; i < cut.size(); ++i) EXPECT_LE(cut.range[i], 2.0f + 1e-5f);
+  // With one free sample per voxel, the two rays to the same far voxel share their first free voxels.
+  o.max_range = -1;
+  o.one_free_sample_per_voxel = true;
+  rng.seed(3);
+  const SampleSet dedup = sampleScan(pts, origin, o, rng);
+  EXPECT_LT(dedup.size(), s.size());
+  std::set<std::uint64_t> cells;
+  const geometry::KeyConverter conv(0.1);
+  for (std::size_t i = 0; i < dedup.size(); ++i) {
+    geometry::VoxelKey k;
+    ASSERT_TRUE(conv.toKey(dedup.points[i], k));
+    if (!dedup.occupied[i]) {
+      EXPECT_TRUE(cells.insert(k.packed()).second) << "two free samples in one voxel";
+    }
+  }
+}
+
+TEST(ClassificationScores, AucMseAccuracyAndCoverage) {
+  const std::vector<bool> labels = {true, true, false, false};
+  const auto perfect = eval::score({0.9f, 0.8f, 0.2f, 0.1f}, labels);
+  EXPECT_DOUBLE_EQ(perfect.auc, 1.0);
+  EXPECT_DOUBLE_EQ(perfect.acc_occupied, 1.0);
+  EXPECT_DOUBLE_EQ(perfect.acc_free, 1.0);
+  EXPECT_NEAR(perfect.mse, (0.01 + 0.04 + 0.04 + 0.01) / 4, 1e-7);
+  EXPECT_DOUBLE_EQ(eval::score({0.1f, 0.2f, 0.8f, 0.9f}, labels).auc, 0.0);
+  const auto unknown = eval::score({std::nullopt, 0.8f, std::nullopt, 0.1f}, labels);
+  EXPECT_DOUBLE_EQ(unknown.coverage, 0.5);
+  EXPECT_DOUBLE_EQ(unknown.acc_occupied, 0.5);  // an unknown answer is never right
+  EXPECT_DOUBLE_EQ(eval::score({0.5f, 0.5f, 0.5f, 0.5f}, labels).auc, 0.5);
+}
+
+/// A wall 3 m in front of the sensor, scanned densely.
+std::vector<Vec3f> wall() {
+  std::vector<Vec3f> pts;
+  for (float y = -1.5f; y <= 1.5f; y += 0.04f)
+    for (float z = -0.5f; z <= 1.0f; z += 0.04f) pts.emplace_back(3.0f, y, z);
+  return pts;
+}
+
+template <class Layer, class Options>
+void expectWallMapped(Options o) {
+  o.layer.resolution = 0.1;
+  Layer layer(o);
+  layer.insert(wall(), Vec3f(0, 0, 0.25f));
+  const auto on = layer.probability(Vec3f(3.0f, 0.3f, 0.2f));
+  const auto before = layer.probability(Vec3f(1.5f, 0.1f, 0.2f));
+  ASSERT_TRUE(on.has_value());
+  ASSERT_TRUE(before.has_value());
+  EXPECT_GT(*on, 0.5f) << layer.name() << " on the wall";
+  EXPECT_LT(*before, 0.5f) << layer.name() << " between the sensor and the wall";
+  EXPECT_FALSE(layer.probability(Vec3f(5.0f, 0.0f, 0.2f)).has_value()) << layer.name() << " behind the wall";
+}
+
+TEST(KernelLayers, BgkMapsAWall) { expectWallMapped<IsotropicKernelLayer>(IsotropicKernelOptions{}); }
+TEST(KernelLayers, AkimapMapsAWall) { expectWallMapped<AdaptiveKernelLayer>(AdaptiveKernelOptions{}); }
+
+TEST(KernelLayers, AkimapKernelsFollowTheWall) {
+  // Occupied kernels on a flat wall are thin across it and wide along it (Sec. 3.3.3): the cell just in
+  // front of the wall gets far less occupied evidence than a cell on the wall as far from the samples.
+  AdaptiveKernelOptions o;
+  o.layer.resolution = 0.05;
+  AdaptiveKernelLayer layer(o);
+  layer.insert(wall(), Vec3f(0, 0, 0.25f));
+  geometry::VoxelKey on, off;
+  layer.converter().toKey(Vec3f(3.0f, 0.02f, 0.2f), on);
+  layer.converter().toKey(Vec3f(2.9f, 0.02f, 0.2f), off);
+  EXPECT_GT(layer.evidence(on)[0], 5.0f * layer.evidence(off)[0]);
+}
+
+TEST(KernelLayers, BeatTheExactMapOnLa3dmHeldOutPoints) {
+  DENSEMAP_REQUIRE_DATA("la3dm/sim_structured");
+  auto src = io::openSource(test::dataDir() + "/la3dm/sim_structured");
+  std::mt19937_64 rng(1);
+  eval::HeldOutOptions ho;
+  ho.end_margin = 0.05;
+  map::GridMap exact(0.1);
+  update::UpdateEngine engine;
+  KernelLayerOptions lo;
+  lo.resolution = 0.1;
+  IsotropicKernelOptions bo;
+  bo.layer = lo;
+  IsotropicKernelLayer bgk(bo);
+  AdaptiveKernelOptions ao;
+  ao.layer = lo;
+  AdaptiveKernelLayer akimap(ao);
+  std::vector<Vec3f> tests;
+  std::vector<bool> labels;
+  for (std::size_t i = 0; i < src->size(); ++i) {
+    const io::Scan s = src->read(i);
+    const auto split = eval::splitScan(s.worldPoints(), s.origin(), ho, rng);
+    engine.insert(exact, split.map_points, s.origin());
+    bgk.insert(split.map_points, s.origin());
+    akimap.insert(split.map_points, s.origin());
+    for (const auto& t : split.tests) {
+      tests.push_back(t.p);
+      labels.push_back(t.occupied);
+    }
+  }
+  std::vector<std::optional<float>> pe, pb, pa;
+  for (const auto& p : tests) {
+    geometry::VoxelKey k;
+    exact.converter().toKey(p, k);
+    const auto v = exact.logOdds(k);
+    pe.push_back(v ? std::optional<float>(1.0f / (1.0f + std::exp(-*v))) : std::nullopt);
+    pb.push_back(bgk.probability(p));
+    pa.push_back(akimap.probability(p));
+  }
+  const auto se = eval::score(pe, labels), sb = eval::score(pb, labels), sa = eval::score(pa, labels);
+  EXPECT_GT(sb.auc, se.auc);
+  EXPECT_GT(sa.auc, se.auc);
+  EXPECT_GT(sb.coverage, se.coverage);
+  EXPECT_GT(sa.coverage, se.coverage);
+}
+
+}  // namespace
+}  // namespace densemap::dense
