@@ -42,6 +42,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--clamp-min", o.map.params.clamp_min, "lower clamping probability")->capture_default_str();
   app.add_option("--clamp-max", o.map.params.clamp_max, "upper clamping probability")->capture_default_str();
+  app.add_option("--dense-layer", o.dense.method,
+                 "dense layer stage after the exact map: none, akimap or bgk")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "akimap", "bgk"}));
+  app.add_option("--dense-resolution", o.dense.resolution, "dense layer cell size (0: the map's)")
+      ->capture_default_str();
+  app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
+      ->capture_default_str();
   app.add_option("--robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

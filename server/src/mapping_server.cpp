@@ -11,6 +11,8 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "densemap/dense/adaptive_kernel_layer.h"
+#include "densemap/dense/isotropic_kernel_layer.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
@@ -48,6 +50,24 @@ std::unique_ptr<map::OccupancyMap> makeMap(const MapOptions& o) {
   if (o.backend == "grid") return std::make_unique<map::GridMap>(o.resolution, o.params);
   if (o.backend == "octree") return std::make_unique<map::OctreeMap>(o.resolution, o.params);
   throw std::invalid_argument("unknown map backend '" + o.backend + "' (use grid or octree)");
+}
+
+std::unique_ptr<dense::KernelLayer> makeDenseLayer(const DenseLayerOptions& o, double map_resolution) {
+  dense::KernelLayerOptions lo;
+  lo.resolution = o.resolution > 0 ? o.resolution : map_resolution;
+  lo.sampling.free_sample_distance = o.free_sample_distance;
+  lo.sampling.max_range = o.max_range;
+  if (o.method == "akimap") {
+    dense::AdaptiveKernelOptions a;
+    a.layer = lo;
+    return std::make_unique<dense::AdaptiveKernelLayer>(a);
+  }
+  if (o.method == "bgk") {
+    dense::IsotropicKernelOptions b;
+    b.layer = lo;
+    return std::make_unique<dense::IsotropicKernelLayer>(b);
+  }
+  throw std::invalid_argument("unknown dense layer '" + o.method + "' (use none, akimap or bgk)");
 }
 
 std::uint64_t residentBytes() {
@@ -91,9 +111,13 @@ ScanJob toJob(msg::Scan& m, std::string& why) {
 MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   started_ = std::chrono::steady_clock::now();
   store_ = std::make_unique<MapStore>(makeMap(options_.map));
-  query_service_ = std::make_unique<QueryService>(*store_, options_.queries);
   std::vector<std::unique_ptr<PipelineStage>> stages;
   stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, options_.update_nice));
+  if (options_.dense.method != "none") {
+    dense_store_ = std::make_unique<DenseStore>(makeDenseLayer(options_.dense, options_.map.resolution));
+    stages.push_back(std::make_unique<DenseStage>(*dense_store_));
+  }
+  query_service_ = std::make_unique<QueryService>(*store_, options_.queries, dense_store_.get());
   pipeline_ = std::make_unique<Pipeline>(
       options_.pipeline, std::move(stages),
       [this](const ScanJob& j, ScanOutcome o, const std::string& why) { onOutcome(j, o, why); });

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "densemap/map/map_file.h"
+#include "densemap/server/dense_stage.h"
 
 namespace densemap::server {
 
@@ -83,12 +84,17 @@ msg::QueryReply QueryService::answer(const msg::QueryRequest& rq) {
   rp.kind(rq.kind());
   rp.status(msg::STATUS_OK);
   try {
-    if (rq.layer() != msg::LAYER_OCCUPANCY) {
-      const unsigned layer = static_cast<unsigned>(rq.layer());
-      rp.status(layer <= msg::LAYER_FUSED ? msg::STATUS_LAYER_UNAVAILABLE : msg::STATUS_INVALID_ARGUMENT);
-      rp.message(layer <= msg::LAYER_FUSED
-                     ? "this server builds no dense layer yet; ask for the occupancy layer"
-                     : fmt::format("unknown layer {}", layer));
+    const unsigned layer = static_cast<unsigned>(rq.layer());
+    const bool per_cell_kind =
+        rq.kind() == msg::QUERY_POINTS || rq.kind() == msg::QUERY_BOX || rq.kind() == msg::QUERY_RAY;
+    if (layer > msg::LAYER_FUSED) {
+      rp.status(msg::STATUS_INVALID_ARGUMENT);
+      rp.message(fmt::format("unknown layer {} (occupancy 0, dense 1, fused 2)", layer));
+    } else if (rq.layer() != msg::LAYER_OCCUPANCY && dense_ == nullptr) {
+      rp.status(msg::STATUS_LAYER_UNAVAILABLE);
+      rp.message("this server builds no dense layer; start it with --dense-layer akimap (or bgk)");
+    } else if (rq.layer() != msg::LAYER_OCCUPANCY && per_cell_kind) {
+      denseQuery(rq, rp);
     } else {
       switch (rq.kind()) {
         case msg::QUERY_POINTS:
@@ -133,6 +139,95 @@ msg::QueryReply QueryService::answer(const msg::QueryRequest& rq) {
     spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), rp.message());
   }
   return rp;
+}
+
+void QueryService::denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp) {
+  const bool fused = rq.layer() == msg::LAYER_FUSED;
+  store_.read([&](const map::OccupancyMap& m, std::uint64_t version) {
+    rp.map_version(version);
+    return dense_->read([&](const dense::KernelLayer& d, std::uint64_t) {
+      // Fused: the exact map where it observed the cell, the dense layer where it did not.
+      auto probabilityAt = [&](const Vec3f& p) -> std::optional<float> {
+        if (fused) {
+          VoxelKey k;
+          if (p.allFinite() && m.converter().toKey(p, k)) {
+            if (const auto v = m.logOdds(k)) return probability(*v);
+          }
+        }
+        return d.probability(p);
+      };
+      const double res = std::min(m.resolution(), d.options().resolution);
+      if (rq.kind() == msg::QUERY_POINTS) {
+        const auto& xyz = rq.points();
+        if (xyz.size() % 3 != 0)
+          throw InvalidArgument("points must be packed x y z (a multiple of 3 floats)");
+        const std::size_t n = xyz.size() / 3;
+        if (n > limits_.max_points) {
+          throw InvalidArgument(
+              fmt::format("{} points is over the limit of {} per query", n, limits_.max_points));
+        }
+        rp.probabilities().resize(n);
+        rp.states().resize(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          const auto p = probabilityAt(Vec3f(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]));
+          rp.probabilities()[i] = p.value_or(0.5f);
+          rp.states()[i] = !p ? msg::CELL_UNKNOWN : *p >= 0.5f ? msg::CELL_OCCUPIED : msg::CELL_FREE;
+        }
+      } else if (rq.kind() == msg::QUERY_BOX) {
+        const geometry::KeyConverter conv(d.options().resolution);
+        const auto [lo, hi] = boxKeys(conv, rq);
+        double cells = 1;
+        for (int a = 0; a < 3; ++a) cells *= static_cast<double>(hi[a] - lo[a] + 1);
+        if (cells > 16e6) {
+          throw InvalidArgument(
+              fmt::format("the box holds {:.0f} dense cells; at most 16 million per query", cells));
+        }
+        const std::uint32_t limit = rq.limit() == 0 ? limits_.default_box_limit : rq.limit();
+        VoxelKey k;
+        for (int x = lo[0]; x <= hi[0]; ++x)
+          for (int y = lo[1]; y <= hi[1]; ++y)
+            for (int z = lo[2]; z <= hi[2]; ++z) {
+              k = VoxelKey{{static_cast<geometry::KeyCoord>(x), static_cast<geometry::KeyCoord>(y),
+                            static_cast<geometry::KeyCoord>(z)}};
+              const Vec3f c = conv.toCoord(k);
+              const auto p = probabilityAt(c);
+              if (!p || *p < 0.5f) continue;
+              if (rp.cells().size() / 3 >= limit) {
+                rp.truncated(true);
+                continue;
+              }
+              rp.cells().insert(rp.cells().end(), {c.x(), c.y(), c.z()});
+            }
+      } else {  // QUERY_RAY: march at half the finer resolution
+        const Vec3f origin = vec(rq.ray_origin());
+        Vec3f dir = vec(rq.ray_direction());
+        if (!origin.allFinite() || !dir.allFinite() || dir.norm() == 0.0f) {
+          throw InvalidArgument("the ray needs a finite origin and a finite, non-zero direction");
+        }
+        if (!(rq.max_range() > 0.0f) || rq.max_range() > limits_.max_ray_range) {
+          throw InvalidArgument(fmt::format("max_range must be in (0, {}] m", limits_.max_ray_range));
+        }
+        dir.normalize();
+        const float step = static_cast<float>(0.5 * res);
+        for (float t = 0.0f; t <= rq.max_range(); t += step) {
+          const Vec3f q = origin + dir * t;
+          const auto p = probabilityAt(q);
+          if (p && *p >= 0.5f) {
+            rp.hit(true);
+            rp.hit_point({q.x(), q.y(), q.z()});
+            rp.message(fmt::format("hit at {:.2f} m", t));
+            return 0;
+          }
+          if (!p && !rq.ignore_unknown()) {
+            rp.message(fmt::format("reached an unknown cell at {:.2f} m", t));
+            return 0;
+          }
+        }
+        rp.message("no occupied cell within max_range");
+      }
+      return 0;
+    });
+  });
 }
 
 void QueryService::points(const msg::QueryRequest& rq, msg::QueryReply& rp) {
@@ -297,6 +392,7 @@ void QueryService::reset(msg::QueryReply& rp) {
                                       return n;
                                     })
                                     .get();
+  if (dense_ != nullptr) dense_->clear();
   rp.cells_changed(changed);
   rp.map_version(store_.version());
   rp.message(fmt::format("reset: forgot {} cells", changed));

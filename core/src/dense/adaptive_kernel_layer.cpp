@@ -28,7 +28,7 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
 double AdaptiveKernelLayer::searchRadius(float range, double max_range) const {
   const double res = options_.resolution, far = options_.sampling.free_sample_distance;
   const double t = max_range > 0 ? std::clamp(static_cast<double>(range) / max_range, 0.0, 1.0) : 1.0;
-  return res + (far - res) * t;
+  return std::max(adaptive_.min_search_radius, res + (far - res) * t);
 }
 
 void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range, std::vector<Kernel>& out) {

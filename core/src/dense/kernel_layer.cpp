@@ -19,15 +19,32 @@ KernelLayer::KernelLayer(const KernelLayerOptions& options)
 }
 
 LayerStats KernelLayer::insert(const std::vector<Vec3f>& points, const Vec3f& origin) {
-  const auto t0 = Clock::now();
-  const SampleSet samples = sampleScan(points, origin, options_.sampling, rng_);
-  const double sampling_ms = msSince(t0);
+  Prepared p = prepare(points, origin);
+  commit(p);
+  return p.stats;
+}
+
+KernelLayer::Prepared KernelLayer::prepare(const std::vector<Vec3f>& points, const Vec3f& origin) {
+  Prepared p;
+  auto t = Clock::now();
+  p.samples = sampleScan(points, origin, options_.sampling, rng_);
+  p.stats.sampling_ms = msSince(t);
   float longest = 0.0f;
-  for (float r : samples.range) longest = std::max(longest, r);
+  for (float r : p.samples.range) longest = std::max(longest, r);
   const double max_range = options_.sampling.max_range > 0 ? options_.sampling.max_range : longest;
-  LayerStats st = insertSamples(samples, max_range);
-  st.sampling_ms = sampling_ms;
-  return st;
+  p.stats.samples = p.samples.size();
+  p.stats.occupied_samples = p.samples.occupiedCount();
+  t = Clock::now();
+  p.kernels.resize(p.samples.size());
+  bandwidths(p.samples, max_range, p.kernels);
+  p.stats.bandwidth_ms = msSince(t);
+  return p;
+}
+
+void KernelLayer::commit(Prepared& p) {
+  const auto t = Clock::now();
+  accumulate(p.samples, p.kernels, p.stats);
+  p.stats.accumulate_ms = msSince(t);
 }
 
 LayerStats KernelLayer::insertSamples(const SampleSet& samples, double max_range) {

@@ -17,6 +17,9 @@ struct AdaptiveKernelOptions {
   int scale_steps = 12;
   /// Size the initial bandwidth so its support reaches the search radius (the covariance gives its shape).
   bool support_to_radius = true;
+  /// Lower bound of the search radius (0: the dissertation's schedule, from the cell size at the sensor).
+  /// On la3dm at 0.05 m, 0.2 raised the held-out AUC from 0.916 to 0.950 at twice the time.
+  double min_search_radius = 0.0;
 };
 
 class AdaptiveKernelLayer : public KernelLayer {

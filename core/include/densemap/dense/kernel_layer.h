@@ -60,8 +60,19 @@ class KernelLayer {
 
   virtual std::string name() const = 0;
 
-  /// Integrates one scan (world-frame points, sensor origin) incrementally.
+  /// Integrates one scan (world-frame points, sensor origin) incrementally: prepare() then commit().
   LayerStats insert(const std::vector<Vec3f>& points, const Vec3f& origin);
+
+  /// A scan's samples and kernels, computed without changing what queries see.
+  struct Prepared {
+    SampleSet samples;
+    std::vector<Kernel> kernels;
+    LayerStats stats;
+  };
+  /// The read-only part of insert() (for the writer thread; it does not touch the cells).
+  Prepared prepare(const std::vector<Vec3f>& points, const Vec3f& origin);
+  /// Adds a prepared scan's kernels to the cells (the part readers must not overlap).
+  void commit(Prepared& prepared);
   /// Integrates already drawn samples (the evaluation draws them once for several methods).
   LayerStats insertSamples(const SampleSet& samples, double max_range_hint);
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "densemap/msg/densemap.h"
+#include "densemap/server/dense_stage.h"
 #include "densemap/server/map_store.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query_service.h"
@@ -34,6 +35,8 @@ class MappingServer {
 
   msg::ServerStatistics statistics() const;
   MapStore& store() { return *store_; }
+  /// The dense layer, or null when the server runs none.
+  DenseStore* denseStore() { return dense_store_.get(); }
   const ServerOptions& options() const { return options_; }
 
  private:
@@ -46,6 +49,7 @@ class MappingServer {
 
   ServerOptions options_;
   std::unique_ptr<MapStore> store_;
+  std::unique_ptr<DenseStore> dense_store_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<QueryService> query_service_;
   std::unique_ptr<Listener> listener_;

@@ -22,9 +22,13 @@ struct QueryLimits {
   double max_ray_range = 1000.0;
 };
 
+class DenseStore;
+
 class QueryService {
  public:
-  QueryService(MapStore& store, QueryLimits limits) : store_(store), limits_(limits) {}
+  /// `dense` may be null (no dense layer: the dense and fused layers answer "unavailable").
+  QueryService(MapStore& store, QueryLimits limits, DenseStore* dense = nullptr)
+      : store_(store), limits_(limits), dense_(dense) {}
 
   /// Never throws: every problem becomes a status and a message in the reply.
   msg::QueryReply answer(const msg::QueryRequest& request);
@@ -35,6 +39,7 @@ class QueryService {
   LatencySummary latency() const { return latency_.summary(); }
 
  private:
+  void denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp);
   void points(const msg::QueryRequest& rq, msg::QueryReply& rp);
   void box(const msg::QueryRequest& rq, msg::QueryReply& rp);
   void ray(const msg::QueryRequest& rq, msg::QueryReply& rp);
@@ -45,6 +50,7 @@ class QueryService {
 
   MapStore& store_;
   QueryLimits limits_;
+  DenseStore* dense_;
   std::atomic<std::uint64_t> answered_{0}, failed_{0};
   LatencyWindow latency_;
 };

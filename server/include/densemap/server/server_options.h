@@ -19,6 +19,14 @@ struct MapOptions {
   map::OccupancyParams params{};  ///< OctoMap's sensor model defaults
 };
 
+/// The dense layer stage (Ch. 3), after the exact map.
+struct DenseLayerOptions {
+  std::string method = "none";  ///< "none", "akimap" or "bgk"
+  double resolution = 0.0;      ///< cell size; 0: the map's resolution
+  double free_sample_distance = 0.5;
+  double max_range = 30.0;  ///< rays are cut here for the dense layer (metres; < 0: unlimited)
+};
+
 struct ServerOptions {
   msg::DdsOptions dds{};
   /// Names this server in statistics and logs.
@@ -26,6 +34,7 @@ struct ServerOptions {
   MapOptions map{};
   update::UpdateOptions update{};  ///< super rays + culling region, batch semantics by default
   PipelineOptions pipeline{};
+  DenseLayerOptions dense{};
   ScanLimits limits{};
   QueryLimits queries{};
   /// Threads answering queries concurrently with the map update.
