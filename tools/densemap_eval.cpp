@@ -43,7 +43,7 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
   std::string source, scans, methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
-  double resolution = 0.1, max_range = -1.0, free_distance = 0.5;
+  double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0;
   bool as_json = false;
   int threads = 0;
   std::uint64_t seed = 1;
@@ -56,6 +56,11 @@ int main(int argc, char** argv) {
   app.add_option("--max-range", max_range, "cut rays at this range (<0: unlimited)")->capture_default_str();
   app.add_option("--free-sample-distance", free_distance,
                  "kernel methods: one free sample per this many metres")
+      ->capture_default_str();
+  app.add_option("--free-voxel", free_voxel,
+                 "kernel methods: one free sample per voxel of this size (0: resolution)")
+      ->capture_default_str();
+  app.add_option("--min-search-radius", min_radius, "akimap: lower bound of the neighbour search radius (m)")
       ->capture_default_str();
   app.add_option("--seed", seed, "seed of the split, the test points and the free samples")
       ->capture_default_str();
@@ -112,6 +117,7 @@ int main(int argc, char** argv) {
         lo.resolution = resolution;
         lo.sampling.free_sample_distance = free_distance;
         lo.sampling.max_range = max_range;
+        lo.sampling.free_voxel_size = free_voxel;
         lo.seed = seed;
         std::unique_ptr<dense::KernelLayer> layer;
         if (m == "bgk") {
@@ -121,6 +127,7 @@ int main(int argc, char** argv) {
         } else {
           dense::AdaptiveKernelOptions o;
           o.layer = lo;
+          o.min_search_radius = min_radius;
           layer = std::make_unique<dense::AdaptiveKernelLayer>(o);
         }
         const auto t0 = Clock::now();

@@ -48,6 +48,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"none", "akimap", "bgk"}));
   app.add_option("--dense-resolution", o.dense.resolution, "dense layer cell size (0: the map's)")
       ->capture_default_str();
+  app.add_option(
+         "--dense-free-voxel", o.dense.free_voxel_size,
+         "dense layer: one free sample per voxel of this size (0: its resolution; 0.3 keeps KITTI real-time)")
+      ->capture_default_str();
   app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
       ->capture_default_str();
   app.add_option("--robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")

@@ -57,6 +57,7 @@ std::unique_ptr<dense::KernelLayer> makeDenseLayer(const DenseLayerOptions& o, d
   lo.resolution = o.resolution > 0 ? o.resolution : map_resolution;
   lo.sampling.free_sample_distance = o.free_sample_distance;
   lo.sampling.max_range = o.max_range;
+  lo.sampling.free_voxel_size = o.free_voxel_size;
   if (o.method == "akimap") {
     dense::AdaptiveKernelOptions a;
     a.layer = lo;

@@ -20,8 +20,12 @@ struct SamplingOptions {
   double free_sample_distance = 0.5;
   /// Rays longer than this are cut there and give no occupied sample; < 0: unlimited.
   double max_range = -1.0;
-  /// Keep at most one free sample per voxel of `resolution` per scan.
+  /// Keep at most one free sample per voxel of `free_voxel_size` (0: `resolution`) per scan: rays converge
+  /// near the sensor, which would otherwise be sampled thousands of times over.
   bool one_free_sample_per_voxel = true;
+  double free_voxel_size = 0.0;
+  /// Free samples only along the rays of the points kept as occupied samples (one ray per voxel).
+  bool one_ray_per_voxel = true;
 };
 
 struct SampleSet {

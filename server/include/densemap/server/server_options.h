@@ -24,7 +24,8 @@ struct DenseLayerOptions {
   std::string method = "none";  ///< "none", "akimap" or "bgk"
   double resolution = 0.0;      ///< cell size; 0: the map's resolution
   double free_sample_distance = 0.5;
-  double max_range = 30.0;  ///< rays are cut here for the dense layer (metres; < 0: unlimited)
+  double free_voxel_size = 0.0;  ///< one free sample per voxel of this size (0: the resolution)
+  double max_range = 30.0;       ///< rays are cut here for the dense layer (metres; < 0: unlimited)
 };
 
 struct ServerOptions {
