@@ -65,7 +65,7 @@ void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range,
         }
       }
       Eigen::Matrix3f sigma;
-      if (same >= adaptive_.min_neighbours) {
+      if (same >= adaptive_.min_neighbours && !(adaptive_.isotropic_free_kernels && !yi)) {
         mean /= static_cast<float>(same);
         sigma.setZero();
         for (const auto& [j, d2] : found) {
