@@ -45,7 +45,7 @@ void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range,
 #pragma omp parallel
   {
     std::vector<std::pair<std::uint32_t, float>> found;
-    std::vector<float> r2_same, r2_other;
+    std::vector<float> r_same, t_same, r_other;
 #pragma omp for schedule(dynamic, 128)
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3f xi = samples.points[i];
@@ -91,12 +91,19 @@ void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range,
                                       (lambda_max / std::max(eig.eigenvalues().maxCoeff(), floor_var));
       const Eigen::Matrix3f sigma_inv = sigma.inverse();
       // Mahalanobis distances (under Sigma) of the neighbours, split by label.
-      r2_same.clear();
-      r2_other.clear();
+      r_same.clear();
+      t_same.clear();
+      r_other.clear();
       for (const auto& [j, d2] : found) {
         if (j == i) continue;
         const Eigen::Vector3f d = samples.points[j] - xi;
-        ((samples.occupied[j] != 0) == yi ? r2_same : r2_other).push_back(d.dot(sigma_inv * d));
+        const float r = std::sqrt(d.dot(sigma_inv * d));
+        if ((samples.occupied[j] != 0) == yi) {
+          r_same.push_back(r);
+          t_same.push_back(sparseKernel(r));  // Eq. 3.6's target, the same at every scale
+        } else {
+          r_other.push_back(r);
+        }
       }
       // Step 2: the scale s minimising Eq. 3.7, s^-3/2 * sum_j (t_j - k(r_j / sqrt(s)))^2, with the targets
       // of Eq. 3.6 (k(r_j) for same-label neighbours, 0 for the others), over the scales whose support
@@ -112,13 +119,12 @@ void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range,
                   : s_min * std::pow(s_max / s_min, static_cast<float>(k) / static_cast<float>(steps - 1));
         const float inv_sqrt_s = 1.0f / std::sqrt(s);
         float e = 0.0f;
-        for (float r2 : r2_same) {
-          const float r = std::sqrt(r2);
-          const float diff = sparseKernel(r) - sparseKernel(r * inv_sqrt_s);
+        for (std::size_t j = 0; j < r_same.size(); ++j) {
+          const float diff = t_same[j] - sparseKernel(r_same[j] * inv_sqrt_s);
           e += diff * diff;
         }
-        for (float r2 : r2_other) {
-          const float v = sparseKernel(std::sqrt(r2) * inv_sqrt_s);
+        for (float r : r_other) {
+          const float v = sparseKernel(r * inv_sqrt_s);
           e += v * v;
         }
         e *= inv_sqrt_s * inv_sqrt_s * inv_sqrt_s;

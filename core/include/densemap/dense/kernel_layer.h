@@ -50,10 +50,9 @@ class SparseKernelTable {
   std::array<float, kSize + 1> values_{};
 };
 
-inline float sparseKernel(float r) {
-  static const SparseKernelTable table;
-  return table(r);
-}
+inline const SparseKernelTable kSparseKernelTable;
+
+inline float sparseKernel(float r) { return kSparseKernelTable(r); }
 
 /// One sample's kernel: its shape (inverse bandwidth) and signal weight.
 struct Kernel {
