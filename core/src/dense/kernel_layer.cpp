@@ -1,6 +1,5 @@
 #include "densemap/dense/kernel_layer.h"
 
-#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -74,6 +73,12 @@ void KernelLayer::accumulate(const SampleSet& samples, const std::vector<Kernel>
     const Vec3f lo = samples.points[i] - k.half_extent, hi = samples.points[i] + k.half_extent;
     valid[i] = converter_.toKey(lo, boxes[i][0]) && converter_.toKey(hi, boxes[i][1]);
   }
+  // Blocks the kernels touch (created serially), and per block the kernels touching it, in sample order:
+  // each block is then updated by one thread, so no atomics are needed and every cell sums its
+  // contributions in the same order whatever the thread count (deterministic results).
+  std::unordered_map<std::uint64_t, std::uint32_t> touched_index;
+  std::vector<Block*> touched;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;  // (touched block, sample)
   for (std::size_t i = 0; i < n; ++i) {
     if (!valid[i]) continue;
     const auto& [lo, hi] = boxes[i];
@@ -82,54 +87,73 @@ void KernelLayer::accumulate(const SampleSet& samples, const std::vector<Kernel>
         for (int z = lo[2] >> kShift; z <= hi[2] >> kShift; ++z) {
           const geometry::VoxelKey b{{static_cast<geometry::KeyCoord>(x), static_cast<geometry::KeyCoord>(y),
                                       static_cast<geometry::KeyCoord>(z)}};
-          auto& slot = blocks_[b.packed()];
-          if (!slot) slot = std::make_unique<Block>();
+          auto [it, inserted] =
+              touched_index.try_emplace(b.packed(), static_cast<std::uint32_t>(touched.size()));
+          if (inserted) {
+            auto& slot = blocks_[b.packed()];
+            if (!slot) slot = std::make_unique<Block>();
+            touched.push_back(slot.get());
+          }
+          pairs.emplace_back(it->second, static_cast<std::uint32_t>(i));
         }
   }
+  std::vector<std::uint32_t> offsets(touched.size() + 1, 0), order(pairs.size());
+  for (const auto& [blk, i] : pairs) ++offsets[blk + 1];
+  for (std::size_t t = 0; t < touched.size(); ++t) offsets[t + 1] += offsets[t];
+  {
+    std::vector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+    for (const auto& [blk, i] : pairs) order[fill[blk]++] = i;
+  }
+  std::vector<geometry::VoxelKey> block_keys(touched.size());
+  for (const auto& [id, t] : touched_index) block_keys[t] = geometry::VoxelKey::fromPacked(id);
+  const float res = static_cast<float>(converter_.resolution());
   std::size_t updates = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : updates)
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!valid[i]) continue;
-    const Kernel& k = kernels[i];
-    const Vec3f x = samples.points[i];
-    const bool occ = samples.occupied[i] != 0;
-    const auto& [lo, hi] = boxes[i];
-    for (int bx = lo[0] >> kShift; bx <= hi[0] >> kShift; ++bx)
-      for (int by = lo[1] >> kShift; by <= hi[1] >> kShift; ++by)
-        for (int bz = lo[2] >> kShift; bz <= hi[2] >> kShift; ++bz) {
-          const geometry::VoxelKey b{{static_cast<geometry::KeyCoord>(bx),
-                                      static_cast<geometry::KeyCoord>(by),
-                                      static_cast<geometry::KeyCoord>(bz)}};
-          Block& block = *blocks_.find(b.packed())->second;
-          auto& target = occ ? block.alpha : block.beta;
-          const int x0 = std::max<int>(lo[0], bx << kShift),
-                    x1 = std::min<int>(hi[0], (bx << kShift) + kSide - 1);
-          const int y0 = std::max<int>(lo[1], by << kShift),
-                    y1 = std::min<int>(hi[1], (by << kShift) + kSide - 1);
-          const int z0 = std::max<int>(lo[2], bz << kShift),
-                    z1 = std::min<int>(hi[2], (bz << kShift) + kSide - 1);
-          for (int cx = x0; cx <= x1; ++cx) {
-            const float dx =
-                static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(cx))) - x.x();
-            for (int cy = y0; cy <= y1; ++cy) {
-              const float dy =
-                  static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(cy))) - x.y();
-              for (int cz = z0; cz <= z1; ++cz) {
-                const float dz =
-                    static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(cz))) - x.z();
-                const Eigen::Vector3f d(dx, dy, dz);
-                const float r2 = d.dot(k.h_inv * d);
-                if (r2 >= 1.0f) continue;
-                const float w = k.weight * sparseKernel(std::sqrt(r2));
-                const int idx = (((cx & (kSide - 1)) << (2 * kShift)) | ((cy & (kSide - 1)) << kShift) |
-                                 (cz & (kSide - 1)));
-                std::atomic_ref<float>(target[static_cast<std::size_t>(idx)])
-                    .fetch_add(w, std::memory_order_relaxed);
-                ++updates;
-              }
-            }
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : updates)
+  for (std::size_t t = 0; t < touched.size(); ++t) {
+    Block& block = *touched[t];
+    const int bx = block_keys[t][0], by = block_keys[t][1], bz = block_keys[t][2];
+    for (std::uint32_t o = offsets[t]; o < offsets[t + 1]; ++o) {
+      const std::size_t i = order[o];
+      const Kernel& k = kernels[i];
+      const Vec3f x = samples.points[i];
+      auto& target = samples.occupied[i] != 0 ? block.alpha : block.beta;
+      const auto& [lo, hi] = boxes[i];
+      const int x0 = std::max<int>(lo[0], bx << kShift),
+                x1 = std::min<int>(hi[0], (bx << kShift) + kSide - 1);
+      const int y0 = std::max<int>(lo[1], by << kShift),
+                y1 = std::min<int>(hi[1], (by << kShift) + kSide - 1);
+      const int z0 = std::max<int>(lo[2], bz << kShift),
+                z1 = std::min<int>(hi[2], (bz << kShift) + kSide - 1);
+      // Per (x, y) column, r^2 is a quadratic in dz: C dz^2 + B dz + A. Only the cells between its roots
+      // (r < 1) are visited, instead of the support's whole bounding box.
+      const Eigen::Matrix3f& m = k.h_inv;
+      const float c2 = m(2, 2);
+      const float z_base = static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(z0)));
+      for (int cx = x0; cx <= x1; ++cx) {
+        const float dx = static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(cx))) - x.x();
+        for (int cy = y0; cy <= y1; ++cy) {
+          const float dy =
+              static_cast<float>(converter_.toCoord(static_cast<geometry::KeyCoord>(cy))) - x.y();
+          const float a = m(0, 0) * dx * dx + 2.0f * m(0, 1) * dx * dy + m(1, 1) * dy * dy;
+          const float b = 2.0f * (m(0, 2) * dx + m(1, 2) * dy);
+          const float disc = b * b - 4.0f * c2 * (a - 1.0f);
+          if (disc <= 0.0f) continue;
+          const float root = std::sqrt(disc);
+          const float dz_lo = (-b - root) / (2.0f * c2), dz_hi = (-b + root) / (2.0f * c2);
+          const int za = std::max(z0, z0 + static_cast<int>(std::ceil((dz_lo + x.z() - z_base) / res)));
+          const int zb = std::min(z1, z0 + static_cast<int>(std::floor((dz_hi + x.z() - z_base) / res)));
+          const int row = ((cx & (kSide - 1)) << (2 * kShift)) | ((cy & (kSide - 1)) << kShift);
+          for (int cz = za; cz <= zb; ++cz) {
+            const float dz = z_base + static_cast<float>(cz - z0) * res - x.z();
+            const float r2 = a + dz * (b + c2 * dz);
+            if (r2 >= 1.0f) continue;
+            target[static_cast<std::size_t>(row | (cz & (kSide - 1)))] +=
+                k.weight * sparseKernel(std::sqrt(std::max(r2, 0.0f)));
+            ++updates;
           }
         }
+      }
+    }
   }
   stats.cell_updates = updates;
 }
