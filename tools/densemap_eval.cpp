@@ -1,10 +1,12 @@
 // densemap-eval: the held-out evaluation of Sec. 2.4.2 for the exact log-odds map, the BGK baseline and
 // AKIMap: ROC AUC, MSE, accuracy on occupied and free test points, coverage and time per scan.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <random>
 #include <sstream>
 
 #include <spdlog/spdlog.h>
@@ -18,6 +20,7 @@
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/update/update_engine.h"
+#include "densemap/util/image.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -31,6 +34,7 @@ struct SplitScan {
 
 struct MethodResult {
   std::string method;
+  double usage = 1.0;  ///< share of each scan's map points used
   eval::ClassificationScores scores;
   double seconds = 0;
   std::size_t scans = 0;
@@ -44,7 +48,8 @@ int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
   std::string source, scans, methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
   double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0;
-  bool as_json = false, iso_free = false;
+  bool as_json = false, iso_free = false, equal_time = false;
+  std::string roc_png;
   int threads = 0;
   std::uint64_t seed = 1;
   app.add_option("--source", source, "scan source (see densemap-map --help)")->required();
@@ -67,6 +72,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--roc-csv", roc_csv, "write the ROC curves (method,threshold,fpr,tpr) to this CSV file");
   app.add_flag("--json", as_json, "print one JSON object per method");
+  app.add_flag(
+      "--equal-time", equal_time,
+      "also run slower kernel methods on less data (5% steps) until they fit the fastest one's time");
+  app.add_option("--roc-png", roc_png, "plot the ROC curves to this PNG (exact blue, bgk green, akimap red)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -93,12 +102,20 @@ int main(int argc, char** argv) {
         labels.push_back(t.occupied);
       }
     }
-    std::vector<MethodResult> results;
-    std::stringstream methods_in(methods_text);
-    for (std::string m; std::getline(methods_in, m, ',');) {
+    // One method on a share of each scan's map points (the equal-time mode lowers it in 5% steps).
+    auto run = [&](const std::string& m, double usage) {
       MethodResult r;
       r.method = m;
+      r.usage = usage;
       r.scans = split.size();
+      std::vector<SplitScan> used = split;
+      if (usage < 1.0) {
+        std::mt19937_64 sub(seed + 7);
+        for (auto& s : used) {
+          std::shuffle(s.map_points.begin(), s.map_points.end(), sub);
+          s.map_points.resize(static_cast<std::size_t>(usage * static_cast<double>(s.map_points.size())));
+        }
+      }
       std::vector<std::optional<float>> pred(test_points.size());
       if (m == "exact") {
         map::GridMap grid(resolution);
@@ -106,7 +123,7 @@ int main(int argc, char** argv) {
         uo.max_range = max_range;
         update::UpdateEngine engine(uo);
         const auto t0 = Clock::now();
-        for (const auto& s : split) engine.insert(grid, s.map_points, s.origin);
+        for (const auto& s : used) engine.insert(grid, s.map_points, s.origin);
         r.seconds = secondsSince(t0);
         for (std::size_t i = 0; i < test_points.size(); ++i) {
           geometry::VoxelKey k;
@@ -133,27 +150,47 @@ int main(int argc, char** argv) {
           layer = std::make_unique<dense::AdaptiveKernelLayer>(o);
         }
         const auto t0 = Clock::now();
-        for (const auto& s : split) layer->insert(s.map_points, s.origin);
+        for (const auto& s : used) layer->insert(s.map_points, s.origin);
         r.seconds = secondsSince(t0);
         for (std::size_t i = 0; i < test_points.size(); ++i) pred[i] = layer->probability(test_points[i]);
       } else {
         throw std::invalid_argument("unknown method '" + m + "' (use exact, bgk, akimap)");
       }
       r.scores = eval::score(pred, labels);
-      results.push_back(std::move(r));
+      return r;
+    };
+    std::vector<MethodResult> results;
+    std::stringstream methods_in(methods_text);
+    for (std::string m; std::getline(methods_in, m, ',');) results.push_back(run(m, 1.0));
+    if (equal_time) {
+      // Table 3.2's top rows: the budget is the fastest kernel method's time on all the data; slower
+      // methods drop 5% of the data at a time until they fit in it.
+      double budget = INFINITY;
+      for (const auto& r : results) {
+        if (r.method != "exact") budget = std::min(budget, r.seconds);
+      }
+      const std::size_t full = results.size();
+      for (std::size_t i = 0; i < full; ++i) {
+        if (results[i].method == "exact" || results[i].seconds <= budget) continue;
+        MethodResult r = results[i];
+        for (double usage = 0.95; usage > 0.04 && r.seconds > budget; usage -= 0.05) r = run(r.method, usage);
+        results.push_back(r);
+      }
+      if (!as_json)
+        std::printf("equal-time budget: %.3f s (the fastest kernel method on all the data)\n", budget);
     }
     std::ofstream csv;
     if (!roc_csv.empty()) {
       csv.open(roc_csv);
       if (!csv) throw std::runtime_error("cannot write " + roc_csv);
-      csv << "method,threshold,fpr,tpr\n";
+      csv << "method,usage,threshold,fpr,tpr\n";
     }
     if (!as_json) {
       std::printf("%s, scans %zu-%zu, %.2f m, %zu test points (%zu occupied)\n", src->describe().c_str(),
                   range.first, range.last, resolution, labels.size(),
                   results.empty() ? 0 : results[0].scores.occupied);
-      std::printf("%-8s %7s %7s %9s %9s %9s %10s %11s\n", "method", "AUC", "MSE", "acc_occ", "acc_free",
-                  "coverage", "seconds", "ms/scan");
+      std::printf("%-14s %7s %7s %9s %9s %9s %10s %11s\n", "method (data)", "AUC", "MSE", "acc_occ",
+                  "acc_free", "coverage", "seconds", "ms/scan");
     }
     for (const auto& r : results) {
       const auto& s = r.scores;
@@ -167,18 +204,48 @@ int main(int argc, char** argv) {
                             {"coverage", s.coverage},
                             {"seconds_total", r.seconds},
                             {"ms_per_scan", ms},
+                            {"usage", r.usage},
                             {"scans", r.scans},
                             {"resolution", resolution},
                             {"test_points", labels.size()}};
         std::printf("%s\n", j.dump().c_str());
       } else {
-        std::printf("%-8s %7.3f %7.3f %9.3f %9.3f %9.3f %10.3f %11.1f\n", r.method.c_str(), s.auc, s.mse,
+        const std::string label =
+            r.method + " (" + std::to_string(static_cast<int>(r.usage * 100 + 0.5)) + "%)";
+        std::printf("%-14s %7.3f %7.3f %9.3f %9.3f %9.3f %10.3f %11.1f\n", label.c_str(), s.auc, s.mse,
                     s.acc_occupied, s.acc_free, s.coverage, r.seconds, ms);
       }
       if (csv) {
-        for (const auto& p : s.roc)
-          csv << r.method << "," << p.threshold << "," << p.fpr << "," << p.tpr << "\n";
+        for (const auto& p : s.roc) {
+          csv << r.method << "," << r.usage << "," << p.threshold << "," << p.fpr << "," << p.tpr << "\n";
+        }
       }
+    }
+    if (!roc_png.empty()) {
+      // ROC plot: false-positive rate to the right, true-positive rate up; the chance diagonal in grey.
+      constexpr int kSize = 480, kMargin = 32;
+      util::Image img(kSize + 2 * kMargin, kSize + 2 * kMargin);
+      const std::uint8_t black[3] = {0, 0, 0}, grey[3] = {190, 190, 190};
+      auto px = [&](double fpr) { return kMargin + static_cast<int>(fpr * kSize); };
+      auto py = [&](double tpr) { return kMargin + kSize - static_cast<int>(tpr * kSize); };
+      img.line(px(0), py(0), px(1), py(1), grey);
+      img.line(px(0), py(0), px(1), py(0), black);
+      img.line(px(0), py(0), px(0), py(1), black);
+      for (const auto& r : results) {
+        std::uint8_t c[3] = {40, 70, 200};  // exact: blue
+        if (r.method == "bgk") c[0] = 30, c[1] = 160, c[2] = 60;
+        if (r.method == "akimap") c[0] = 210, c[1] = 40, c[2] = 40;
+        const int thickness = r.usage < 1.0 ? 1 : 3;  // equal-time runs drawn thin
+        for (std::size_t k = 1; k < r.scores.roc.size(); ++k) {
+          const auto& a = r.scores.roc[k - 1];
+          const auto& b = r.scores.roc[k];
+          img.line(px(a.fpr), py(a.tpr), px(b.fpr), py(b.tpr), c, thickness);
+        }
+      }
+      util::writePng(roc_png, img);
+      if (!as_json)
+        std::printf("ROC curves: %s (exact blue, bgk green, akimap red; thin: equal-time runs)\n",
+                    roc_png.c_str());
     }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
