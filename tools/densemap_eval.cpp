@@ -47,7 +47,8 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
   std::string source, scans, methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
-  double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0;
+  double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0,
+         min_occupied_radius = 0.0;
   bool as_json = false, iso_free = false, equal_time = false;
   std::string roc_png;
   int threads = 0;
@@ -68,6 +69,9 @@ int main(int argc, char** argv) {
   app.add_option("--min-search-radius", min_radius, "akimap: lower bound of the neighbour search radius (m)")
       ->capture_default_str();
   app.add_flag("--isotropic-free-kernels", iso_free, "akimap: free samples get isotropic kernels");
+  app.add_option("--min-occupied-search-radius", min_occupied_radius,
+                 "akimap: lower bound of occupied samples' neighbour search radius (m)")
+      ->capture_default_str();
   app.add_option("--seed", seed, "seed of the split, the test points and the free samples")
       ->capture_default_str();
   app.add_option("--roc-csv", roc_csv, "write the ROC curves (method,threshold,fpr,tpr) to this CSV file");
@@ -147,6 +151,7 @@ int main(int argc, char** argv) {
           o.layer = lo;
           o.min_search_radius = min_radius;
           o.isotropic_free_kernels = iso_free;
+          o.min_occupied_search_radius = min_occupied_radius;
           layer = std::make_unique<dense::AdaptiveKernelLayer>(o);
         }
         const auto t0 = Clock::now();

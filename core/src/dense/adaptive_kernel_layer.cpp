@@ -50,7 +50,8 @@ void AdaptiveKernelLayer::bandwidths(const SampleSet& samples, double max_range,
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3f xi = samples.points[i];
       const bool yi = samples.occupied[i] != 0;
-      const float radius = static_cast<float>(searchRadius(samples.range[i], max_range));
+      float radius = static_cast<float>(searchRadius(samples.range[i], max_range));
+      if (yi) radius = std::max(radius, static_cast<float>(adaptive_.min_occupied_search_radius));
       found.clear();
       nanoflann::SearchParams params;
       params.sorted = false;
