@@ -48,9 +48,14 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"none", "akimap", "bgk"}));
   app.add_option("--dense-resolution", o.dense.resolution, "dense layer cell size (0: the map's)")
       ->capture_default_str();
+  app.add_option("--dense-free-voxel", o.dense.free_voxel_size,
+                 "dense layer: one free sample per voxel of this size (0: its resolution)")
+      ->capture_default_str();
+  app.add_flag("--dense-isotropic-free", o.dense.isotropic_free_kernels,
+               "AKIMap: isotropic kernels for free samples (docs/BENCHMARKS.md)");
   app.add_option(
-         "--dense-free-voxel", o.dense.free_voxel_size,
-         "dense layer: one free sample per voxel of this size (0: its resolution; 0.3 keeps KITTI real-time)")
+         "--dense-min-occupied-radius", o.dense.min_occupied_search_radius,
+         "AKIMap: floor of occupied samples' neighbour search radius in metres (0: the dissertation's)")
       ->capture_default_str();
   app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
       ->capture_default_str();

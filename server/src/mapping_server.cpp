@@ -61,6 +61,8 @@ std::unique_ptr<dense::KernelLayer> makeDenseLayer(const DenseLayerOptions& o, d
   if (o.method == "akimap") {
     dense::AdaptiveKernelOptions a;
     a.layer = lo;
+    a.isotropic_free_kernels = o.isotropic_free_kernels;
+    a.min_occupied_search_radius = o.min_occupied_search_radius;
     return std::make_unique<dense::AdaptiveKernelLayer>(a);
   }
   if (o.method == "bgk") {

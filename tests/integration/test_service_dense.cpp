@@ -29,6 +29,7 @@ TEST(ServiceDense, DenseAndFusedLayersAnswerFromTheirMaps) {
   dense::AdaptiveKernelOptions ao;
   ao.layer.resolution = o.map.resolution;
   ao.layer.sampling.max_range = o.dense.max_range;
+  ao.layer.sampling.free_voxel_size = o.dense.free_voxel_size;
   dense::AdaptiveKernelLayer offline(ao);
   const auto exact = offlineMap<map::GridMap>(scans, o.map.resolution);
   for (const auto& s : scans) {

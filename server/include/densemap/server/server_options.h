@@ -24,8 +24,14 @@ struct DenseLayerOptions {
   std::string method = "none";  ///< "none", "akimap" or "bgk"
   double resolution = 0.0;      ///< cell size; 0: the map's resolution
   double free_sample_distance = 0.5;
-  double free_voxel_size = 0.0;  ///< one free sample per voxel of this size (0: the resolution)
-  double max_range = 30.0;       ///< rays are cut here for the dense layer (metres; < 0: unlimited)
+  /// One free sample per voxel of this size (0: the resolution). 0.3 keeps a 64-beam LiDAR at ~235 ms per
+  /// scan at 0.2 m (docs/BENCHMARKS.md).
+  double free_voxel_size = 0.3;
+  double max_range = 30.0;
+  /// AKIMap extensions (dense/adaptive_kernel_layer.h): isotropic free kernels, occupied radius floor.
+  bool isotropic_free_kernels = false;
+  double min_occupied_search_radius =
+      0.0;  ///< rays are cut here for the dense layer (metres; < 0: unlimited)
 };
 
 struct ServerOptions {
