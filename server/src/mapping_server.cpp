@@ -325,6 +325,7 @@ void MappingServer::statisticsLoop() {
       for (const auto& st : s.stages()) {
         stages +=
             fmt::format("; {} p50 {:.1f} p99 {:.1f} ms", st.name(), st.latency_p50_ms(), st.latency_p99_ms());
+        if (st.dropped() > 0) stages += fmt::format(" ({} scans skipped: behind)", st.dropped());
       }
       spdlog::info(
           "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms "
