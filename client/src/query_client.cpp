@@ -16,7 +16,8 @@ namespace dds = eprosima::fastdds::dds;
 class QueryClient::Listener : public dds::DataReaderListener {
  public:
   explicit Listener(QueryClient& c) : c_(c) {}
-  void on_data_available(dds::DataReader*) override { c_.onReplies(); }
+  // Use the reader passed in: replies can arrive before create_datareader() has returned (intraprocess).
+  void on_data_available(dds::DataReader* reader) override { c_.onReplies(reader); }
 
  private:
   QueryClient& c_;
@@ -82,10 +83,10 @@ msg::QueryReply QueryClient::call(msg::QueryRequest request, std::chrono::millis
   return reply.get();
 }
 
-void QueryClient::onReplies() {
+void QueryClient::onReplies(dds::DataReader* reader) {
   msg::QueryReply rp;
   dds::SampleInfo info;
-  while (reader_->take_next_sample(&rp, &info) == ReturnCode_t::RETCODE_OK) {
+  while (reader->take_next_sample(&rp, &info) == ReturnCode_t::RETCODE_OK) {
     if (!info.valid_data || rp.client_id() != id_) continue;
     std::lock_guard lock(mutex_);
     auto it = pending_.find(rp.request_id());

@@ -14,11 +14,12 @@ namespace dds = eprosima::fastdds::dds;
 class ScanPublisher::Listener : public dds::DataReaderListener {
  public:
   explicit Listener(ScanPublisher& p) : p_(p) {}
+  // Told apart by topic, not by the member pointers: data can arrive before create_datareader() returns.
   void on_data_available(dds::DataReader* r) override {
-    if (r == p_.ack_reader_) {
-      p_.onAcks();
+    if (r->get_topicdescription()->get_name() == msg::kScanAckTopic) {
+      p_.onAcks(r);
     } else {
-      p_.onStatistics();
+      p_.onStatistics(r);
     }
   }
 
@@ -110,21 +111,21 @@ bool ScanPublisher::publishRaw(msg::Scan& m) {
   return writer_->write(&m);
 }
 
-void ScanPublisher::onAcks() {
+void ScanPublisher::onAcks(dds::DataReader* reader) {
   msg::ScanAck a;
   dds::SampleInfo info;
   std::lock_guard lock(mutex_);
-  while (ack_reader_->take_next_sample(&a, &info) == ReturnCode_t::RETCODE_OK) {
+  while (reader->take_next_sample(&a, &info) == ReturnCode_t::RETCODE_OK) {
     if (info.valid_data) acks_[{a.robot_id(), a.seq()}] = a;
   }
   changed_.notify_all();
 }
 
-void ScanPublisher::onStatistics() {
+void ScanPublisher::onStatistics(dds::DataReader* reader) {
   msg::ServerStatistics s;
   dds::SampleInfo info;
   std::lock_guard lock(mutex_);
-  while (stats_reader_->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
+  while (reader->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
     if (info.valid_data) stats_ = s;
   }
   changed_.notify_all();

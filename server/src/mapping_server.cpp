@@ -27,11 +27,12 @@ using namespace std::chrono_literals;
 class MappingServer::Listener : public dds::DataReaderListener {
  public:
   explicit Listener(MappingServer& s) : s_(s) {}
+  // Told apart by topic, not by the member pointers: data can arrive before create_datareader() returns.
   void on_data_available(dds::DataReader* reader) override {
-    if (reader == s_.scan_reader_) {
+    if (reader->get_topicdescription()->get_name() == msg::kScanTopic) {
       s_.scans_ready_.notify_one();
     } else {
-      s_.takeQueries();
+      s_.takeQueries(reader);
     }
   }
   void on_subscription_matched(dds::DataReader* reader, const dds::SubscriptionMatchedStatus& info) override {
@@ -189,10 +190,10 @@ bool answerInline(const msg::QueryRequest& rq) {
 }
 }  // namespace
 
-void MappingServer::takeQueries() {
+void MappingServer::takeQueries(dds::DataReader* reader) {
   msg::QueryRequest rq;
   dds::SampleInfo info;
-  while (query_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
+  while (reader->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
     if (!info.valid_data) continue;
     if (answerInline(rq)) {
       msg::QueryReply rp = query_service_->answer(rq);

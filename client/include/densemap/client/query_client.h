@@ -38,7 +38,7 @@ class QueryClient {
 
  private:
   class Listener;
-  void onReplies();
+  void onReplies(eprosima::fastdds::dds::DataReader* reader);
 
   msg::DdsNode& node_;
   std::string id_;

@@ -61,8 +61,8 @@ class ScanPublisher {
 
  private:
   class Listener;
-  void onAcks();
-  void onStatistics();
+  void onAcks(eprosima::fastdds::dds::DataReader* reader);
+  void onStatistics(eprosima::fastdds::dds::DataReader* reader);
 
   msg::DdsNode& node_;
   std::unique_ptr<Listener> listener_;

@@ -42,7 +42,7 @@ class MappingServer {
  private:
   class Listener;
   void ingestLoop();
-  void takeQueries();
+  void takeQueries(eprosima::fastdds::dds::DataReader* reader);
   void queryLoop();
   void statisticsLoop();
   void onOutcome(const ScanJob& job, ScanOutcome outcome, const std::string& why);
