@@ -50,6 +50,30 @@ std::pair<VoxelKey, VoxelKey> boxKeys(const geometry::KeyConverter& conv, const 
   return {klo, khi};
 }
 
+/// The request's number of points; throws when they are not packed x y z or too many.
+std::size_t pointCount(const msg::QueryRequest& rq, const QueryLimits& limits) {
+  const auto& xyz = rq.points();
+  if (xyz.size() % 3 != 0) throw InvalidArgument("points must be packed x y z (a multiple of 3 floats)");
+  const std::size_t n = xyz.size() / 3;
+  if (n > limits.max_points) {
+    throw InvalidArgument(fmt::format("{} points is over the limit of {} per query", n, limits.max_points));
+  }
+  return n;
+}
+
+/// The ray's unit direction; throws when the origin, direction or range are not usable.
+Vec3f rayDirection(const msg::QueryRequest& rq, const QueryLimits& limits) {
+  const Vec3f origin = vec(rq.ray_origin());
+  const Vec3f dir = vec(rq.ray_direction());
+  if (!origin.allFinite() || !dir.allFinite() || dir.norm() == 0.0f) {
+    throw InvalidArgument("the ray needs a finite origin and a finite, non-zero direction");
+  }
+  if (!(rq.max_range() > 0.0f) || rq.max_range() > limits.max_ray_range) {
+    throw InvalidArgument(fmt::format("max_range must be in (0, {}] m", limits.max_ray_range));
+  }
+  return dir.normalized();
+}
+
 }  // namespace
 
 msg::MapStatistics mapStatistics(const map::OccupancyMap& map, std::uint64_t version) {
@@ -159,13 +183,7 @@ void QueryService::denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp) 
       const double res = std::min(m.resolution(), d.options().resolution);
       if (rq.kind() == msg::QUERY_POINTS) {
         const auto& xyz = rq.points();
-        if (xyz.size() % 3 != 0)
-          throw InvalidArgument("points must be packed x y z (a multiple of 3 floats)");
-        const std::size_t n = xyz.size() / 3;
-        if (n > limits_.max_points) {
-          throw InvalidArgument(
-              fmt::format("{} points is over the limit of {} per query", n, limits_.max_points));
-        }
+        const std::size_t n = pointCount(rq, limits_);
         rp.probabilities().resize(n);
         rp.states().resize(n);
         for (std::size_t i = 0; i < n; ++i) {
@@ -200,14 +218,7 @@ void QueryService::denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp) 
             }
       } else {  // QUERY_RAY: march at half the finer resolution
         const Vec3f origin = vec(rq.ray_origin());
-        Vec3f dir = vec(rq.ray_direction());
-        if (!origin.allFinite() || !dir.allFinite() || dir.norm() == 0.0f) {
-          throw InvalidArgument("the ray needs a finite origin and a finite, non-zero direction");
-        }
-        if (!(rq.max_range() > 0.0f) || rq.max_range() > limits_.max_ray_range) {
-          throw InvalidArgument(fmt::format("max_range must be in (0, {}] m", limits_.max_ray_range));
-        }
-        dir.normalize();
+        const Vec3f dir = rayDirection(rq, limits_);
         const float step = static_cast<float>(0.5 * res);
         for (float t = 0.0f; t <= rq.max_range(); t += step) {
           const Vec3f q = origin + dir * t;
@@ -232,11 +243,7 @@ void QueryService::denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp) 
 
 void QueryService::points(const msg::QueryRequest& rq, msg::QueryReply& rp) {
   const auto& xyz = rq.points();
-  if (xyz.size() % 3 != 0) throw InvalidArgument("points must be packed x y z (a multiple of 3 floats)");
-  const std::size_t n = xyz.size() / 3;
-  if (n > limits_.max_points) {
-    throw InvalidArgument(fmt::format("{} points is over the limit of {} per query", n, limits_.max_points));
-  }
+  const std::size_t n = pointCount(rq, limits_);
   std::vector<float> probs(n);
   std::vector<uint8_t> states(n);
   store_.read([&](const map::OccupancyMap& m, std::uint64_t version) {
@@ -290,14 +297,7 @@ void QueryService::box(const msg::QueryRequest& rq, msg::QueryReply& rp) {
 
 void QueryService::ray(const msg::QueryRequest& rq, msg::QueryReply& rp) {
   const Vec3f origin = vec(rq.ray_origin());
-  Vec3f dir = vec(rq.ray_direction());
-  if (!origin.allFinite() || !dir.allFinite() || dir.norm() == 0.0f) {
-    throw InvalidArgument("the ray needs a finite origin and a finite, non-zero direction");
-  }
-  if (!(rq.max_range() > 0.0f) || rq.max_range() > limits_.max_ray_range) {
-    throw InvalidArgument(fmt::format("max_range must be in (0, {}] m", limits_.max_ray_range));
-  }
-  dir.normalize();
+  const Vec3f dir = rayDirection(rq, limits_);
   store_.read([&](const map::OccupancyMap& m, std::uint64_t version) {
     rp.map_version(version);
     const auto& conv = m.converter();
