@@ -34,7 +34,8 @@ int main(int argc, char** argv) {
   msg::DdsOptions dds;
   std::string source = "sim", scans, prefix = "robot", offset_text = "0,0,0", summary_json,
               log_level = "info";
-  int robots = 1, loops = 1, query_clients = 0;
+  int robots = 1, loops = 1, query_clients = 0, first_robot = 0;
+  std::size_t max_scans = 0;
   double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
   std::string center_text = "0,0,0";
   std::size_t query_points = 1000;
@@ -61,6 +62,10 @@ int main(int argc, char** argv) {
   app.add_option("--speed", speed, "multiplies the rate (2: twice as fast)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--first-robot", first_robot, "index of the first robot (ids and offsets count from it)")
+      ->capture_default_str();
+  app.add_option("--max-scans", max_scans, "stop each robot after this many scans (0: the whole range x --loops)")
+      ->capture_default_str();
   app.add_option("--loops", loops, "replay the range this many times (sequence numbers keep counting)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -115,7 +120,7 @@ int main(int argc, char** argv) {
                                " s; start it first or check --domain");
     }
     std::set<std::string> ids;
-    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(k));
+    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     // The server counts per robot id over its lifetime: report this run's part.
     const auto before = publisher.lastStatistics();
     const client::RobotTotals base = before ? client::totalsFor(*before, ids) : client::RobotTotals{};
@@ -181,7 +186,8 @@ int main(int argc, char** argv) {
     }
 
     // One thread per robot, each on its own schedule, started a fraction of a period apart.
-    const std::size_t per_robot = data.size() * static_cast<std::size_t>(loops);
+    std::size_t per_robot = data.size() * static_cast<std::size_t>(loops);
+    if (max_scans > 0) per_robot = std::min(per_robot, max_scans);
     const std::uint64_t total = per_robot * static_cast<std::size_t>(robots);
     const double period_s = rate > 0 ? 1.0 / (rate * speed) : 0.0;
     std::atomic<std::uint64_t> sent{0}, refused{0};
@@ -190,7 +196,8 @@ int main(int argc, char** argv) {
     std::vector<std::thread> robot_threads;
     for (int k = 0; k < robots; ++k) {
       robot_threads.emplace_back([&, k] {
-        const std::string id = prefix + "-" + std::to_string(k);
+        const int index = first_robot + k;  // robot index: its id and its offset
+        const std::string id = prefix + "-" + std::to_string(index);
         const auto start = t_start + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(period_s * k / std::max(1, robots)));
         for (std::size_t n = 0; n < per_robot; ++n) {
@@ -200,10 +207,10 @@ int main(int argc, char** argv) {
                             std::chrono::duration<double>(period_s * static_cast<double>(n))));
           }
           io::Scan scan = data[n % data.size()];
-          if (k > 0) {
-            scan.pose.pretranslate(offset * k);
+          if (index > 0) {
+            scan.pose.pretranslate(offset * index);
             if (scan.frame == io::PointFrame::kWorld) {
-              for (auto& p : scan.points) p += (offset * k).cast<float>();
+              for (auto& p : scan.points) p += (offset * index).cast<float>();
             }
           }
           if (k == 0) {
