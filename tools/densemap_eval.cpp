@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < test_points.size(); ++i) {
           geometry::VoxelKey k;
           if (!grid.converter().toKey(test_points[i], k)) continue;
-          if (const auto v = grid.logOdds(k)) pred[i] = static_cast<float>(1.0 / (1.0 + std::exp(-*v)));
+          if (const auto v = grid.logOdds(k)) pred[i] = map::OccupancyParams::probability(*v);
         }
       } else if (m == "bgk" || m == "akimap") {
         dense::KernelLayerOptions lo;

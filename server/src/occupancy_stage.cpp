@@ -15,7 +15,12 @@ StageResult OccupancyStage::process(ScanJob& job) {
     setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), nice_);
     niced_ = true;
   }
-  const std::vector<geometry::Vec3f> world = job.scan.worldPoints();
+  // Later stages (the dense layer) take the scan in the world frame: transform it once, here.
+  if (job.scan.frame != io::PointFrame::kWorld) {
+    job.scan.points = job.scan.worldPoints();
+    job.scan.frame = io::PointFrame::kWorld;
+  }
+  const std::vector<geometry::Vec3f>& world = job.scan.points;
   std::uint64_t version = 0;
   const auto stats =
       engine_.insert(store_.writerView(), world, job.scan.origin(), [&](const std::function<void()>& apply) {

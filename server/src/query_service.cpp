@@ -24,9 +24,7 @@ struct InvalidArgument : std::runtime_error {
 
 Vec3f vec(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
 
-float probability(float log_odds) {
-  return static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(log_odds))));
-}
+float probability(float log_odds) { return map::OccupancyParams::probability(log_odds); }
 
 /// The key range a box covers, clamped to the map's key range; throws on an invalid box.
 std::pair<VoxelKey, VoxelKey> boxKeys(const geometry::KeyConverter& conv, const msg::QueryRequest& rq) {

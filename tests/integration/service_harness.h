@@ -94,9 +94,7 @@ inline std::vector<io::Scan> readScans(const io::ScanSource& src, std::size_t fi
   return out;
 }
 
-inline float probability(float log_odds) {
-  return static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(log_odds))));
-}
+inline float probability(float log_odds) { return map::OccupancyParams::probability(log_odds); }
 
 /// Every known cell of `offline` is served with the same probability and state, and the server knows no
 /// other cell.

@@ -164,7 +164,7 @@ TEST(KernelLayers, BeatTheExactMapOnLa3dmHeldOutPoints) {
     geometry::VoxelKey k;
     exact.converter().toKey(p, k);
     const auto v = exact.logOdds(k);
-    pe.push_back(v ? std::optional<float>(1.0f / (1.0f + std::exp(-*v))) : std::nullopt);
+    pe.push_back(v ? std::optional<float>(map::OccupancyParams::probability(*v)) : std::nullopt);
     pb.push_back(bgk.probability(p));
     pa.push_back(akimap.probability(p));
   }

@@ -46,20 +46,6 @@ void KernelLayer::commit(Prepared& p) {
   p.stats.accumulate_ms = msSince(t);
 }
 
-LayerStats KernelLayer::insertSamples(const SampleSet& samples, double max_range) {
-  LayerStats st;
-  st.samples = samples.size();
-  st.occupied_samples = samples.occupiedCount();
-  auto t = Clock::now();
-  kernels_.resize(samples.size());
-  bandwidths(samples, max_range, kernels_);
-  st.bandwidth_ms = msSince(t);
-  t = Clock::now();
-  accumulate(samples, kernels_, st);
-  st.accumulate_ms = msSince(t);
-  return st;
-}
-
 void KernelLayer::accumulate(const SampleSet& samples, const std::vector<Kernel>& kernels,
                              LayerStats& stats) {
   const std::size_t n = samples.size();

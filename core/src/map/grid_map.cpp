@@ -8,6 +8,13 @@
 namespace densemap::map {
 
 namespace {
+/// The key of voxel i of the block whose block key (key >> kBlockShift) is bk.
+VoxelKey cellKey(const VoxelKey& bk, int i) {
+  const auto d = voxelOffsetInBlock(i);
+  return VoxelKey{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
+                   static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
+                   static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+}
 
 float updatedValue(float current, std::uint32_t nf, std::uint32_t nh, const LogOdds& lo) {
   const bool known = !std::isnan(current);
@@ -137,10 +144,7 @@ void GridMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) 
     for (int i = 0; i < kBlockVoxels; ++i) {
       const float v = b->value[static_cast<std::size_t>(i)];
       if (std::isnan(v)) continue;
-      const auto d = voxelOffsetInBlock(i);
-      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
-                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
-                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+      const VoxelKey k = cellKey(bk, i);
       f(k, v);
     }
   }
@@ -160,10 +164,7 @@ void GridMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
     for (int i = 0; i < kBlockVoxels; ++i) {
       const float v = b.value[static_cast<std::size_t>(i)];
       if (std::isnan(v)) continue;
-      const auto d = voxelOffsetInBlock(i);
-      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
-                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
-                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+      const VoxelKey k = cellKey(bk, i);
       if (inBox(k, lo, hi)) f(k, v);
     }
   };
@@ -204,10 +205,7 @@ std::size_t GridMap::eraseBox(const VoxelKey& lo, const VoxelKey& hi) {
     for (int i = 0; i < kBlockVoxels; ++i) {
       float& v = b.value[static_cast<std::size_t>(i)];
       if (std::isnan(v)) continue;
-      const auto d = voxelOffsetInBlock(i);
-      VoxelKey k{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + d[0]),
-                  static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + d[1]),
-                  static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + d[2])}};
+      const VoxelKey k = cellKey(bk, i);
       if (inBox(k, lo, hi)) {
         v = std::numeric_limits<float>::quiet_NaN();
         ++erased;

@@ -100,8 +100,6 @@ class KernelLayer {
   Prepared prepare(const std::vector<Vec3f>& points, const Vec3f& origin);
   /// Adds a prepared scan's kernels to the cells (the part readers must not overlap).
   void commit(Prepared& prepared);
-  /// Integrates already drawn samples (the evaluation draws them once for several methods).
-  LayerStats insertSamples(const SampleSet& samples, double max_range_hint);
 
   /// P(occupied) of the cell holding p, or nullopt when the layer has too little evidence there.
   std::optional<float> probability(const Vec3f& p) const;
@@ -131,7 +129,6 @@ class KernelLayer {
 
   std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
   std::mt19937_64 rng_;
-  std::vector<Kernel> kernels_;
 };
 
 }  // namespace densemap::dense

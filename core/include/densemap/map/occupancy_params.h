@@ -16,6 +16,10 @@ struct OccupancyParams {
 
   /// OctoMap's logodds(): computed in double, stored as float.
   static float logOdds(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
+  /// The inverse: P(occupied) of a log-odds value (computed in double, returned as float).
+  static float probability(float log_odds) {
+    return static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(log_odds))));
+  }
 
   /// Empty when valid, else a message saying what is wrong.
   std::string validate() const {

@@ -49,7 +49,11 @@ class DenseStage : public PipelineStage {
   std::string name() const override { return "dense"; }
   OverflowPolicy inputPolicy() const override { return OverflowPolicy::kDropOldest; }
   StageResult process(ScanJob& job) override {
-    auto prepared = store_.writerView().prepare(job.scan.worldPoints(), job.scan.origin());
+    // The occupancy stage before this one left the points in the world frame.
+    std::vector<geometry::Vec3f> converted;
+    if (job.scan.frame != io::PointFrame::kWorld) converted = job.scan.worldPoints();
+    const auto& points = job.scan.frame == io::PointFrame::kWorld ? job.scan.points : converted;
+    auto prepared = store_.writerView().prepare(points, job.scan.origin());
     store_.commit(prepared);
     return {};
   }
