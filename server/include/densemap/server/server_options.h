@@ -24,7 +24,7 @@ struct DenseLayerOptions {
   std::string method = "none";  ///< "none", "akimap" or "bgk"
   double resolution = 0.0;      ///< cell size; 0: the map's resolution
   double free_sample_distance = 0.5;
-  /// One free sample per voxel of this size (0: the resolution). 0.3 keeps a 64-beam LiDAR at ~235 ms per
+  /// One free sample per voxel of this size (0: the resolution). 0.3 keeps a 64-beam LiDAR at ~226 ms per
   /// scan at 0.2 m (docs/BENCHMARKS.md).
   double free_voxel_size = 0.3;
   double max_range = 30.0;
