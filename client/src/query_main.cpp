@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
   std::string layer_name = "occupancy", log_level = "warn";
   app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_flag("--udp-only", dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
   app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
       ->check(CLI::ExistingFile);
   app.add_flag("--json", as_json, "print one JSON object instead of text");

@@ -1,7 +1,9 @@
 // densemap-replay: publishes any scan source as one or several robots at a rate, reports what the server
 // acknowledged, and (with --query-clients) measures query round trips while the scans stream in.
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -37,11 +39,12 @@ int main(int argc, char** argv) {
   int robots = 1, loops = 1, query_clients = 0, first_robot = 0;
   std::size_t max_scans = 0;
   double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
-  std::string center_text = "0,0,0";
+  std::string center_text = "0,0,0", query_kind = "points";
   std::size_t query_points = 1000;
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_flag("--udp-only", dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
   app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
       ->check(CLI::ExistingFile);
   app.add_option(
@@ -75,6 +78,11 @@ int main(int argc, char** argv) {
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
+  app.add_option("--query-kind", query_kind,
+                 "what the query clients ask: 'points' (--query-points cells), 'box' (the cells of a 4 m cube, "
+                 "at most --query-points of them) or 'ray' (a cast of up to 30 m)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"points", "box", "ray"}));
   app.add_option("--duration", duration_s, "with --robots 0: seconds the query clients run")
       ->capture_default_str();
   app.add_option("--query-center", center_text, "with --robots 0: query points are drawn around x,y,z")
@@ -163,12 +171,28 @@ int main(int argc, char** argv) {
             std::this_thread::sleep_until(next);
           }
           msg::QueryRequest rq;
-          rq.kind(msg::QUERY_POINTS);
-          rq.points().resize(3 * query_points);
-          for (std::size_t i = 0; i < query_points; ++i) {
-            rq.points()[3 * i] = robot0[0] + u(rng);
-            rq.points()[3 * i + 1] = robot0[1] + u(rng);
-            rq.points()[3 * i + 2] = robot0[2] + uz(rng);
+          const std::array<float, 3> around{robot0[0] + u(rng), robot0[1] + u(rng), robot0[2] + uz(rng)};
+          if (query_kind == "box") {
+            rq.kind(msg::QUERY_BOX);
+            for (std::size_t a = 0; a < 3; ++a) {
+              rq.box_min()[a] = around[a] - 2.0f;
+              rq.box_max()[a] = around[a] + 2.0f;
+            }
+            rq.limit(static_cast<std::uint32_t>(query_points));
+          } else if (query_kind == "ray") {
+            rq.kind(msg::QUERY_RAY);
+            const float yaw = u(rng) / static_cast<float>(query_radius) * 3.14159265f;
+            rq.ray_origin({robot0[0].load(), robot0[1].load(), robot0[2].load()});
+            rq.ray_direction({std::cos(yaw), std::sin(yaw), -0.05f});
+            rq.max_range(30.0f);
+          } else {
+            rq.kind(msg::QUERY_POINTS);
+            rq.points().resize(3 * query_points);
+            for (std::size_t i = 0; i < query_points; ++i) {
+              rq.points()[3 * i] = robot0[0] + u(rng);
+              rq.points()[3 * i + 1] = robot0[1] + u(rng);
+              rq.points()[3 * i + 2] = robot0[2] + uz(rng);
+            }
           }
           const auto t0 = Clock::now();
           try {
@@ -243,6 +267,7 @@ int main(int argc, char** argv) {
 
     nlohmann::json j = {{"source", described},
                         {"robots", robots},
+                        {"robot_ids", std::vector<std::string>(ids.begin(), ids.end())},
                         {"rate_hz", rate * speed},
                         {"scans_sent", sent.load()},
                         {"scans_refused_by_dds", refused.load()},
@@ -268,6 +293,7 @@ int main(int argc, char** argv) {
     if (query_clients > 0) {
       const double points = static_cast<double>(query_ms.size() * query_points);
       j["query_clients"] = query_clients;
+      j["query_kind"] = query_kind;
       j["query_points"] = query_points;
       j["query_rate_hz"] = query_rate;
       j["queries"] = query_ms.size();
@@ -275,6 +301,7 @@ int main(int argc, char** argv) {
       j["query_p50_ms"] = percentile(query_ms, 0.5);
       j["query_p99_ms"] = percentile(query_ms, 0.99);
       j["query_points_per_s"] = points / std::max(1e-9, total_s);
+      j["query_latencies_ms"] = query_ms;  // raw, so a load test can pool clients of one kind
     }
     std::printf(
         "sent %llu scans for %d robot(s) in %.1f s; acknowledged %llu (applied %llu, dropped %llu, rejected "
@@ -289,9 +316,9 @@ int main(int argc, char** argv) {
         static_cast<unsigned long long>(server.rejected), percentile(lat, 0.5), percentile(lat, 0.99));
     if (query_clients > 0) {
       std::printf(
-          "queries: %zu x %zu points from %d clients, round trip p50 %.2f ms, p99 %.2f ms, %.0f points/s, "
+          "%s queries: %zu x %zu points from %d clients, round trip p50 %.2f ms, p99 %.2f ms, %.0f points/s, "
           "%llu failed\n",
-          query_ms.size(), query_points, query_clients, percentile(query_ms, 0.5), percentile(query_ms, 0.99),
+          query_kind.c_str(), query_ms.size(), query_points, query_clients, percentile(query_ms, 0.5), percentile(query_ms, 0.99),
           j["query_points_per_s"].get<double>(), static_cast<unsigned long long>(query_failures.load()));
     }
     if (!summary_json.empty()) {

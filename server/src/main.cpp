@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   app.add_option("--domain", o.dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
   app.add_flag("--loopback", o.dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
+  app.add_flag("--udp-only", o.dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
   app.add_option("--dds-profile", o.dds.profile_file,
                  "Fast DDS XML profile file to use instead of the built-in config/dds_profiles.xml")
       ->check(CLI::ExistingFile);

@@ -38,6 +38,9 @@ struct DdsOptions {
   int domain = 0;
   /// Shared memory + UDP on 127.0.0.1 only (profile "densemap_loopback") instead of every interface.
   bool loopback = false;
+  /// UDP only, no shared memory (profile "densemap_udp"): between containers, whose /dev/shm and network
+  /// namespaces differ. Ignored with `loopback`.
+  bool udp_only = false;
   /// An XML profile file to load instead of the built-in one (same profile names); empty: built-in.
   std::string profile_file;
   /// Participant name, shown by DDS tools.
