@@ -63,6 +63,34 @@ def proc_sample(pid, clock_ticks):
     return (int(fields[11]) + int(fields[12])) / clock_ticks, rss  # utime + stime
 
 
+def thread_cpu(pid, clock_ticks):
+    """CPU seconds so far per thread name of a process (threads we start are named dm-<role>; OpenMP
+    workers inherit their creator's name; unnamed library threads carry the program's name)."""
+    out = {}
+    try:
+        tids = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return out
+    for tid in tids:
+        try:
+            with open(f"/proc/{pid}/task/{tid}/stat") as f:
+                data = f.read()
+        except OSError:
+            continue
+        name = data[data.index("(") + 1:data.rindex(")")]
+        fields = data.rsplit(")", 1)[1].split()
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / clock_ticks
+    return out
+
+
+def machine_busy():
+    """(busy, total) jiffies of all cores since boot, from /proc/stat."""
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:]]
+    idle = v[3] + v[4]
+    return sum(v) - idle, sum(v)
+
+
 def percentile(values, q):
     if not values:
         return 0.0
@@ -75,6 +103,28 @@ class Sampler:
 
     def __init__(self, pid):
         self.pid, self.ticks, self.samples, self.t0, self.last = pid, os.sysconf("SC_CLK_TCK"), [], time.time(), None
+        self.threads_start, self.threads_end = thread_cpu(pid, self.ticks), {}
+        self.machine_start, self.machine_end = machine_busy(), None
+        self.clients = {}  # pid -> CPU seconds last seen
+
+    def watch_clients(self, pids):
+        for pid in pids:
+            s = proc_sample(pid, self.ticks)
+            if s is not None:
+                self.clients[pid] = s[0]
+
+    def breakdown(self):
+        """Where the CPU went over the run: the server per thread name, the clients, the whole machine."""
+        elapsed = max(1e-9, self.last[0]) if self.last else 1e-9
+        threads = {k: round((v - self.threads_start.get(k, 0.0)) / elapsed, 3)
+                   for k, v in self.threads_end.items()}
+        threads = dict(sorted(((k, v) for k, v in threads.items() if v >= 0.005), key=lambda kv: -kv[1]))
+        busy = total = 0
+        if self.machine_end:
+            busy = self.machine_end[0] - self.machine_start[0]
+            total = self.machine_end[1] - self.machine_start[1]
+        return {"server_threads_cores": threads, "clients_cores": round(sum(self.clients.values()) / elapsed, 3),
+                "machine_busy_fraction": round(busy / total, 3) if total else 0.0, "cores": os.cpu_count()}
 
     def sample(self):
         s = proc_sample(self.pid, self.ticks)
@@ -85,6 +135,8 @@ class Sampler:
             self.samples.append({"t": round(now, 1), "cpu_cores": round((s[0] - self.last[1]) / (now - self.last[0]), 2),
                                  "rss_mb": round(s[1] / 1e6, 1)})
         self.last = (now, s[0])
+        self.threads_end = thread_cpu(self.pid, self.ticks) or self.threads_end
+        self.machine_end = machine_busy()
 
 
 def run_native(a, work):
@@ -119,10 +171,19 @@ def run_native(a, work):
                    "--log-level", "warn"]
             procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL))
         next_sample = time.time()
+        perf = None
         while any(p.poll() is None for p in procs):
             sampler.sample()
+            sampler.watch_clients([p.pid for p in procs if p.poll() is None])
+            if a.profile and perf is None and time.time() - sampler.t0 > a.duration / 3:
+                # A sampling profile of the server in the steady part of the run: what limits it.
+                perf = subprocess.Popen(["perf", "record", "-F", "499", "-g", "-p", str(server.pid), "-o",
+                                         os.path.join(work, "perf.data"), "--", "sleep", str(a.profile)],
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             next_sample += 1.0
             time.sleep(max(0.0, next_sample - time.time()))
+        if perf is not None:
+            perf.wait()
     finally:
         for p in procs:
             if p.poll() is None:
@@ -132,7 +193,7 @@ def run_native(a, work):
             server.wait(timeout=60)
         except subprocess.TimeoutExpired:
             server.kill()
-    return sampler.samples, [p.returncode for p in procs]
+    return sampler, [p.returncode for p in procs]
 
 
 def run_attached(a):
@@ -155,7 +216,7 @@ def run_attached(a):
     found = len(glob.glob(os.path.join(a.attach, "*.json")))
     if found < expected:
         print(f"load_test: only {found} of {expected} client summaries arrived in {a.attach}", file=sys.stderr)
-    return sampler.samples, None
+    return sampler, None
 
 
 def main():
@@ -175,6 +236,8 @@ def main():
     ap.add_argument("--resolution", type=float, default=0.2, help="map resolution (default 0.2)")
     ap.add_argument("--server-args", default="", help="extra densemap-server flags")
     ap.add_argument("--build-dir", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--profile", type=float, default=0, metavar="SECONDS",
+                    help="native: record a perf profile of the server for this long, a third into the run")
     ap.add_argument("--attach", metavar="DIR",
                     help="compose runner: start nothing, sample the visible server, read client summaries here")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
@@ -191,10 +254,11 @@ def main():
 
     if a.attach:
         work = a.attach
-        samples, statuses = run_attached(a)
+        sampler, statuses = run_attached(a)
     else:
         work = tempfile.mkdtemp(prefix="densemap_load_")
-        samples, statuses = run_native(a, work)
+        sampler, statuses = run_native(a, work)
+    samples = sampler.samples
 
     robots, queries = [], []
     for path in sorted(glob.glob(os.path.join(work, "*.json"))):
@@ -221,7 +285,7 @@ def main():
                "latency_p99_ms": lat99, "query_kinds": kinds, "query_p99_ms": q99, "rss_growth": round(growth, 4),
                "cpu_cores_mean": round(sum(busy) / max(1, len(busy)), 2),
                "rss_mb_first": samples[0]["rss_mb"] if samples else 0,
-               "rss_mb_last": samples[-1]["rss_mb"] if samples else 0}
+               "rss_mb_last": samples[-1]["rss_mb"] if samples else 0, "cpu": sampler.breakdown()}
     for q in queries:
         q.pop("query_latencies_ms", None)  # pooled above; keeps the JSON report readable
 
@@ -240,6 +304,21 @@ def main():
         step = max(1, len(samples) // 10)
         print("server over time: " + "  ".join(f"{s['t']:.0f}s {s['cpu_cores']:.2f}c {s['rss_mb']:.0f}MB"
                                                for s in samples[::step]))
+    cpu = summary["cpu"]
+    print(f"CPU: machine {cpu['machine_busy_fraction']:.0%} busy of {cpu['cores']} cores; clients "
+          f"{cpu['clients_cores']:.2f} cores; server threads (cores): "
+          + ", ".join(f"{k} {v:.2f}" for k, v in cpu["server_threads_cores"].items()))
+    perf_data = os.path.join(work, "perf.data")
+    if a.profile and os.path.exists(perf_data):
+        rep = subprocess.run(["perf", "report", "-i", perf_data, "--stdio", "--no-children", "--sort",
+                              "comm,dso,symbol", "--percent-limit", "1.5", "-g", "none"],
+                             capture_output=True, text=True)
+        lines = [" ".join(l.split()[:5])[:140] for l in rep.stdout.splitlines() if l.strip() and not l.startswith("#")]
+        open(os.path.join(work, "profile.txt"), "w").write(rep.stdout)
+        summary["profile_top"] = lines[:25]
+        print("server profile (perf, self time, top entries):")
+        for l in lines[:25]:
+            print("  " + l.strip())
     if a.json:
         json.dump({"summary": summary, "robots": robots, "queries": queries, "server": samples, "work_dir": work},
                   open(a.json, "w"), indent=2)

@@ -16,6 +16,8 @@
 #include "common/cli_common.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
 #include "densemap/dense/isotropic_kernel_layer.h"
+#include "densemap/densify/densify_dataset.h"
+#include "densemap/densify/iln_upsampler.h"
 #include "densemap/eval/classification_metrics.h"
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
@@ -51,8 +53,9 @@ int main(int argc, char** argv) {
          min_occupied_radius = 0.0;
   bool as_json = false, iso_free = false, equal_time = false;
   std::string roc_png;
-  int threads = 0;
+  int threads = 0, beam_step = 0;
   std::uint64_t seed = 1;
+  std::string densify_method = "none", densify_weights;
   app.add_option("--source", source, "scan source (see densemap-map --help)")->required();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
   app.add_option("--resolution", resolution, "cell size in metres")
@@ -81,6 +84,18 @@ int main(int argc, char** argv) {
       "also run slower kernel methods on less data (5% steps) until they fit the fastest one's time");
   app.add_option("--roc-png", roc_png, "plot the ROC curves to this PNG (exact blue, bgk green, akimap red)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
+  app.add_option(
+         "--keep-every-nth-beam", beam_step,
+         "sparse-LiDAR protocol (Sec. 4.4.5): maps get every n-th beam of each scan's 64-beam range image "
+         "(4: 16 beams); the test points are held out from the other beams only (0: off)")
+      ->capture_default_str();
+  app.add_option(
+         "--densify", densify_method,
+         "with --keep-every-nth-beam: none (the sparse beams as they are), bilinear or iln (re-sampled "
+         "to the full beam layout before mapping)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "bilinear", "iln"}));
+  app.add_option("--densify-weights", densify_weights, "ILN weights (default models/iln/iln_compact.pt)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   cli::setupLogging(log_level);
@@ -97,15 +112,55 @@ int main(int argc, char** argv) {
     std::vector<SplitScan> split;
     std::vector<geometry::Vec3f> test_points;
     std::vector<bool> labels;
+    std::unique_ptr<densify::RangeUpsampler> upsampler;
+    if (densify_method == "bilinear") upsampler = std::make_unique<densify::BilinearUpsampler>();
+    if (densify_method == "iln") {
+      densify::IlnUpsampler::setThreads(std::max(1, threads == 0 ? 2 : threads));
+      upsampler = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(
+          densify_weights.empty() ? std::string(DENSEMAP_MODEL_DIR) + "/iln_compact.pt" : densify_weights));
+    }
+    if (upsampler && beam_step < 2)
+      throw std::invalid_argument("--densify needs --keep-every-nth-beam 2 or more");
+    double densify_ms = 0;
     for (std::size_t i = range.first; i <= range.last; ++i) {
       const io::Scan s = src->read(i);
-      auto h = eval::splitScan(s.worldPoints(), s.origin(), ho, rng);
-      split.push_back({std::move(h.map_points), s.origin()});
+      if (beam_step < 2) {
+        auto h = eval::splitScan(s.worldPoints(), s.origin(), ho, rng);
+        split.push_back({std::move(h.map_points), s.origin()});
+        for (const auto& t : h.tests) {
+          test_points.push_back(t.p);
+          labels.push_back(t.occupied);
+        }
+        continue;
+      }
+      // Sparse-LiDAR protocol: the map sees every n-th beam (raw or densified); the tests are the usual 20%
+      // drawn from the other beams' real points, which no map saw.
+      const densify::LidarGeometry g = s.lidar.value_or(densify::LidarGeometry{});
+      const auto pair = densify::exampleFromScan(s, g, beam_step);
+      densify::RangeImage others = pair.target;
+      for (int r = 0; r < others.rows(); r += beam_step)
+        for (int c = 0; c < others.columns(); ++c) others.at(r, c) = 0.0f;
+      const auto to_world = [&](const std::vector<geometry::Vec3f>& sensor) {
+        std::vector<geometry::Vec3f> w;
+        w.reserve(sensor.size());
+        for (const auto& p : sensor) w.push_back((s.pose * p.cast<double>()).cast<float>());
+        return w;
+      };
+      auto h = eval::splitScan(to_world(densify::toPoints(others)), s.origin(), ho, rng);
       for (const auto& t : h.tests) {
         test_points.push_back(t.p);
         labels.push_back(t.occupied);
       }
+      const auto t0 = Clock::now();
+      const densify::RangeImage input =
+          upsampler ? upsampler->upsample(pair.input, pair.target.geometry) : pair.input;
+      densify_ms += secondsSince(t0) * 1000.0;
+      split.push_back({to_world(densify::toPoints(input)), s.origin()});
     }
+    if (beam_step >= 2)
+      spdlog::info("sparse protocol: every {}th beam, densify {} ({:.1f} ms/scan), {} test points", beam_step,
+                   densify_method, densify_ms / static_cast<double>(std::max<std::size_t>(1, split.size())),
+                   test_points.size());
     // One method on a share of each scan's map points (the equal-time mode lowers it in 5% steps).
     auto run = [&](const std::string& m, double usage) {
       MethodResult r;

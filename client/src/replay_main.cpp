@@ -67,7 +67,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--first-robot", first_robot, "index of the first robot (ids and offsets count from it)")
       ->capture_default_str();
-  app.add_option("--max-scans", max_scans, "stop each robot after this many scans (0: the whole range x --loops)")
+  app.add_option("--max-scans", max_scans,
+                 "stop each robot after this many scans (0: the whole range x --loops)")
       ->capture_default_str();
   app.add_option("--loops", loops, "replay the range this many times (sequence numbers keep counting)")
       ->capture_default_str()
@@ -78,9 +79,10 @@ int main(int argc, char** argv) {
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
-  app.add_option("--query-kind", query_kind,
-                 "what the query clients ask: 'points' (--query-points cells), 'box' (the cells of a 4 m cube, "
-                 "at most --query-points of them) or 'ray' (a cast of up to 30 m)")
+  app.add_option(
+         "--query-kind", query_kind,
+         "what the query clients ask: 'points' (--query-points cells), 'box' (the cells of a 4 m cube, "
+         "at most --query-points of them) or 'ray' (a cast of up to 30 m)")
       ->capture_default_str()
       ->check(CLI::IsMember({"points", "box", "ray"}));
   app.add_option("--duration", duration_s, "with --robots 0: seconds the query clients run")
@@ -318,8 +320,9 @@ int main(int argc, char** argv) {
       std::printf(
           "%s queries: %zu x %zu points from %d clients, round trip p50 %.2f ms, p99 %.2f ms, %.0f points/s, "
           "%llu failed\n",
-          query_kind.c_str(), query_ms.size(), query_points, query_clients, percentile(query_ms, 0.5), percentile(query_ms, 0.99),
-          j["query_points_per_s"].get<double>(), static_cast<unsigned long long>(query_failures.load()));
+          query_kind.c_str(), query_ms.size(), query_points, query_clients, percentile(query_ms, 0.5),
+          percentile(query_ms, 0.99), j["query_points_per_s"].get<double>(),
+          static_cast<unsigned long long>(query_failures.load()));
     }
     if (!summary_json.empty()) {
       std::ofstream f(summary_json);

@@ -93,9 +93,9 @@ msg::Scan toMessage(const std::string& robot_id, std::uint64_t seq, const io::Sc
     msg::LidarGeometry g;
     g.rows(static_cast<std::uint16_t>(scan.lidar->rows));
     g.columns(static_cast<std::uint16_t>(scan.lidar->columns));
-    g.fov_up_deg(static_cast<float>(scan.lidar->fov_up_deg));
-    g.fov_down_deg(static_cast<float>(scan.lidar->fov_down_deg));
-    g.fov_horizontal_deg(static_cast<float>(scan.lidar->fov_horizontal_deg));
+    g.fov_up_deg(scan.lidar->fov_up_deg);
+    g.fov_down_deg(scan.lidar->fov_down_deg);
+    g.fov_horizontal_deg(scan.lidar->fov_horizontal_deg);
     m.lidar(g);
   }
   return m;

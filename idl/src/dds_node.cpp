@@ -53,7 +53,9 @@ DdsNode::DdsNode(const DdsOptions& options) {
   }
   loadProfiles(options.profile_file);
   auto* factory = dds::DomainParticipantFactory::get_instance();
-  const std::string profile = options.loopback ? "densemap_loopback" : options.udp_only ? "densemap_udp" : "densemap";
+  const std::string profile = options.loopback   ? "densemap_loopback"
+                              : options.udp_only ? "densemap_udp"
+                                                 : "densemap";
   dds::DomainParticipantQos qos;
   if (factory->get_participant_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) {
     throw DdsError("the DDS profiles have no participant profile '" + profile + "'");

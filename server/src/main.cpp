@@ -60,6 +60,22 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
       ->capture_default_str();
+  std::vector<std::string> densify_robots;
+  app.add_option("--densify", o.densify.method,
+                 "densify stage before the map (Ch. 4): none, iln (trained network) or bilinear")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "iln", "bilinear"}));
+  app.add_option("--densify-weights", o.densify.weights, "ILN weights (default: models/iln/iln_compact.pt)");
+  app.add_option("--densify-input-rows", o.densify.input_rows,
+                 "densify scans from LiDARs with this many beams (0: every scan carrying its geometry)")
+      ->capture_default_str();
+  app.add_option("--densify-robots", densify_robots, "densify exactly these robots' scans instead")
+      ->delimiter(',');
+  app.add_option("--densify-rows", o.densify.target_rows, "beams after densifying")->capture_default_str();
+  app.add_option("--densify-columns", o.densify.target_columns, "columns after densifying (0: the input's)")
+      ->capture_default_str();
+  app.add_option("--densify-threads", o.densify.threads, "threads of the densify network")
+      ->capture_default_str();
   app.add_option("--robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -91,6 +107,7 @@ int main(int argc, char** argv) {
   o.update.method = *update::parseMethod(method);
   o.update.semantics = *map::parseSemantics(semantics);
   o.pipeline.overflow = *server::parseOverflowPolicy(overflow);
+  o.densify.robots.insert(densify_robots.begin(), densify_robots.end());
   cli::setThreads(o.update_threads);
 
   // SIGINT/SIGTERM are taken by this thread only (blocked before any other thread starts).

@@ -1,5 +1,6 @@
 #include "densemap/server/mapping_server.h"
 
+#include <pthread.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -116,6 +117,8 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   started_ = std::chrono::steady_clock::now();
   store_ = std::make_unique<MapStore>(makeMap(options_.map));
   std::vector<std::unique_ptr<PipelineStage>> stages;
+  if (options_.densify.method != "none")
+    stages.push_back(std::make_unique<DensifyStage>(options_.densify, makeUpsampler(options_.densify)));
   stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, options_.update_nice));
   if (options_.dense.method != "none") {
     dense_store_ = std::make_unique<DenseStore>(makeDenseLayer(options_.dense, options_.map.resolution));
@@ -146,10 +149,19 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
     pipeline_->stop(false);
     throw;
   }
-  ingest_thread_ = std::thread([this] { ingestLoop(); });
+  ingest_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-ingest");
+    ingestLoop();
+  });
   for (int i = 0; i < std::max(1, options_.query_threads); ++i)
-    query_threads_.emplace_back([this] { queryLoop(); });
-  stats_thread_ = std::thread([this] { statisticsLoop(); });
+    query_threads_.emplace_back([this] {
+      pthread_setname_np(pthread_self(), "dm-query");
+      queryLoop();
+    });
+  stats_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-statistics");
+    statisticsLoop();
+  });
   spdlog::info("{} serving on DDS domain {} ({}): {} map at {} m, method {}, overflow policy {}",
                options_.server_id, options_.dds.domain, options_.dds.loopback ? "loopback" : "all interfaces",
                options_.map.backend, options_.map.resolution, update::toString(options_.update.method),

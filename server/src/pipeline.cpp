@@ -1,5 +1,7 @@
 #include "densemap/server/pipeline.h"
 
+#include <pthread.h>
+
 #include <chrono>
 
 #include <spdlog/spdlog.h>
@@ -95,6 +97,8 @@ std::optional<ScanJob> Pipeline::nextRoundRobin() {
 void Pipeline::runStage(std::size_t index) {
   Stage& stage = *stages_[index];
   Stage* next = index + 1 < stages_.size() ? stages_[index + 1].get() : nullptr;
+  // Named so profiles and load-test reports attribute CPU per stage (Linux allows 15 characters).
+  pthread_setname_np(pthread_self(), ("dm-" + stage.impl->name()).substr(0, 15).c_str());
   for (;;) {
     std::optional<ScanJob> job;
     if (index == 0) {

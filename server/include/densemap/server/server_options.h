@@ -6,6 +6,7 @@
 
 #include "densemap/map/occupancy_params.h"
 #include "densemap/msg/dds_node.h"
+#include "densemap/server/densify_stage.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query_service.h"
 #include "densemap/server/scan_validator.h"
@@ -42,6 +43,7 @@ struct ServerOptions {
   update::UpdateOptions update{};  ///< super rays + culling region, batch semantics by default
   PipelineOptions pipeline{};
   DenseLayerOptions dense{};
+  DensifyOptions densify{};  ///< ILN densify before the occupancy update (off by default)
   ScanLimits limits{};
   QueryLimits queries{};
   /// Threads answering queries concurrently with the map update.

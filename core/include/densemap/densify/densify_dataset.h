@@ -1,0 +1,33 @@
+// Training and test pairs for range-image super-resolution (Sec. 4.4.1 and 4.4.5): a sparse input image
+// and the dense target of the same scan, from the built-in simulator or from real 64-beam scans.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "densemap/densify/range_upsampler.h"
+#include "densemap/io/lidar_simulator.h"
+
+namespace densemap::densify {
+
+/// A real scan's pair: its points projected on `dense` (the target) and every `beam_step`-th beam of that
+/// image (the input, e.g. 16 of 64 beams).
+RangeImagePair exampleFromScan(const io::Scan& scan, const LidarGeometry& dense, int beam_step);
+
+/// Simulator pairs as the CARLA protocol: each pose rendered as every `beam_step`-th beam of `input_base`
+/// (the input) and on `target` (e.g. 64x1024 or 128x2048), the same scene and pose. `scene_seed` picks the
+/// procedural scene, so training and test scenes differ.
+std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scans,
+                                              const LidarGeometry& input_base, int beam_step,
+                                              const LidarGeometry& target);
+
+/// Point-reconstruction and range accuracy of a predicted image (Sec. 4.4.2).
+struct ReconstructionScore {
+  double mae_m = 0;        ///< mean |predicted - target| range over pixels both have
+  std::size_t pixels = 0;  ///< pixels in the MAE
+  double iou = 0, precision = 0, recall = 0, f1 = 0;  ///< of occupied 0.1 m voxels vs the real points
+};
+ReconstructionScore scoreReconstruction(const RangeImage& predicted, const RangeImage& target,
+                                        const std::vector<Vec3f>& target_points, double voxel_size = 0.1);
+
+}  // namespace densemap::densify

@@ -1,0 +1,65 @@
+#include "densemap/server/densify_stage.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "densemap/densify/iln_upsampler.h"
+
+namespace densemap::server {
+
+io::LidarGeometry densifiedGeometry(const io::LidarGeometry& input, int rows, int columns) {
+  io::LidarGeometry out = input;
+  out.rows = rows;
+  out.columns = columns > 0 ? columns : input.columns;
+  const double in_step = input.rows > 1 ? (input.fov_up_deg - input.fov_down_deg) / (input.rows - 1) : 0.0;
+  const double out_step = in_step * input.rows / std::max(1, rows);
+  out.fov_down_deg = input.fov_up_deg - out_step * (rows - 1);
+  return out;
+}
+
+std::unique_ptr<densify::RangeUpsampler> makeUpsampler(const DensifyOptions& o) {
+  if (o.method == "bilinear") return std::make_unique<densify::BilinearUpsampler>();
+  if (o.method != "iln")
+    throw std::invalid_argument("densify method must be none, iln or bilinear, not " + o.method);
+  std::string path = o.weights;
+  if (path.empty()) {
+    for (const char* dir : {DENSEMAP_MODEL_DIR, "/opt/densemap/share/densemap/models"}) {
+      const auto p = std::filesystem::path(dir) / "iln_compact.pt";
+      if (std::filesystem::exists(p)) {
+        path = p.string();
+        break;
+      }
+    }
+    if (path.empty())
+      throw std::runtime_error(
+          "no ILN weights found (models/iln/iln_compact.pt); pass --densify-weights FILE");
+  }
+  densify::IlnUpsampler::setThreads(o.threads);
+  auto net = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(path));
+  spdlog::info("densify: ILN from {} ({} parameters)", path, net->parameterCount());
+  return net;
+}
+
+DensifyStage::DensifyStage(const DensifyOptions& options, std::unique_ptr<densify::RangeUpsampler> upsampler)
+    : options_(options), upsampler_(std::move(upsampler)) {}
+
+bool DensifyStage::applies(const ScanJob& job) const {
+  if (!job.scan.lidar) return false;
+  if (!options_.robots.empty()) return options_.robots.count(job.robot_id) > 0;
+  return options_.input_rows == 0 || job.scan.lidar->rows == options_.input_rows;
+}
+
+StageResult DensifyStage::process(ScanJob& job) {
+  if (!applies(job) || job.scan.lidar->rows >= options_.target_rows) return {};
+  const io::LidarGeometry& in = *job.scan.lidar;
+  const io::LidarGeometry out = densifiedGeometry(in, options_.target_rows, options_.target_columns);
+  const auto image = densify::project(job.scan.sensorPoints(), in);
+  job.scan.points = densify::toPoints(upsampler_->upsample(image, out));
+  job.scan.frame = io::PointFrame::kSensor;
+  job.scan.lidar = out;
+  return {};
+}
+
+}  // namespace densemap::server
