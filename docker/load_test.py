@@ -196,9 +196,14 @@ def run_native(a, work):
     return sampler, [p.returncode for p in procs]
 
 
+def summaries(directory):
+    """The clients' summary files (robot-*.json, query-*.json) in a directory."""
+    return sorted(glob.glob(os.path.join(directory, "robot-*.json")) + glob.glob(os.path.join(directory, "query-*.json")))
+
+
 def run_attached(a):
     """Samples the server container's process until every expected client summary is in a.attach."""
-    pid = None
+    pid = a.server_pid
     deadline = time.time() + 60
     while pid is None and time.time() < deadline:
         pid = find_pid("densemap-server")
@@ -210,10 +215,10 @@ def run_attached(a):
     sampler = Sampler(pid)
     expected = a.robots + a.query_clients
     deadline = time.time() + a.duration + a.grace
-    while time.time() < deadline and len(glob.glob(os.path.join(a.attach, "*.json"))) < expected:
+    while time.time() < deadline and len(summaries(a.attach)) < expected:
         sampler.sample()
         time.sleep(1.0)
-    found = len(glob.glob(os.path.join(a.attach, "*.json")))
+    found = len(summaries(a.attach))
     if found < expected:
         print(f"load_test: only {found} of {expected} client summaries arrived in {a.attach}", file=sys.stderr)
     return sampler, None
@@ -240,6 +245,8 @@ def main():
                     help="native: record a perf profile of the server for this long, a third into the run")
     ap.add_argument("--attach", metavar="DIR",
                     help="compose runner: start nothing, sample the visible server, read client summaries here")
+    ap.add_argument("--server-pid", type=int, default=None,
+                    help="attach: the server's pid (default: the first process named densemap-server)")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
     ap.add_argument("--json", metavar="FILE", help="write the report as JSON here")
     ap.add_argument("--max-dropped", type=int, default=None, help="bound: dropped scans over all robots")
@@ -261,7 +268,7 @@ def main():
     samples = sampler.samples
 
     robots, queries = [], []
-    for path in sorted(glob.glob(os.path.join(work, "*.json"))):
+    for path in summaries(work):
         data = json.load(open(path))
         (queries if "query_kind" in data and data.get("robots", 0) == 0 else robots).append(data)
     failed = [s for s in (statuses or []) if s != 0]

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job: installs what is missing, builds, starts densemap-server, replays the built-in simulated
-# LiDAR (or the dataset given as the first argument) as a robot at 10 Hz, runs a few queries, renders a
+# LiDAR (or the dataset given as the first argument) as a robot at 10 Hz and a simulated 16-beam LiDAR that
+# the server densifies with ILN, runs a few queries, renders a
 # PNG, saves the map, prints a summary, and stops everything it started.
 #   ./tools/demo.sh                         # simulator
 #   ./tools/demo.sh ../shared/data/kitti00  # any source densemap-replay reads
@@ -16,13 +17,18 @@ bin="$root/build"
 dds=(--domain "$domain" --loopback)
 
 echo "== starting densemap-server on DDS domain $domain (loopback; log in out/server.log)"
-"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" \
+"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" --densify iln \
   > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true' EXIT
 
 echo "== replaying $source as robot-0 at 10 Hz"
 "$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --summary-json "$out/replay.json"
+
+echo "== replaying a 16-beam LiDAR as sparse-1, 40 m to the side: the server densifies its scans to 64 beams"
+echo "   with ILN (models/iln) before mapping them"
+"$bin/client/densemap-replay" "${dds[@]}" --source "sim:scans=10,beams=16" --rate 10 --robot-prefix sparse \
+  --first-robot 1 --robot-offset 0,40,0 --log-level warn
 
 echo "== queries"
 query() { "$bin/client/densemap-query" "${dds[@]}" "$@"; }

@@ -46,7 +46,7 @@ LidarGeometry geometryOf(const io::Scan& scan, int rows, int columns) {
 }
 
 struct TrainArgs {
-  std::string model = "compact", out, checkpoint, kitti, kitti_scans = "0:49";
+  std::string model = "compact", out, checkpoint, init, kitti, kitti_scans = "0:49", sim_style = "both";
   int steps = 2000, sim_scenes = 8, sim_scans = 12, threads = 2, log_every = 50, checkpoint_every = 250;
   int target_rows = 64, target_columns = 1024, beam_step = 4;
   std::uint64_t seed = 1;
@@ -63,9 +63,15 @@ int runTrain(const TrainArgs& a) {
     cli::Progress progress("simulator scenes", static_cast<std::size_t>(a.sim_scenes));
     for (int s = 0; s < a.sim_scenes; ++s) {
       // Scene seeds 1000+ train; densemap-iln eval's simulator test scenes use seeds below 1000.
-      auto ex = densify::simulatorExamples(1000 + static_cast<std::uint64_t>(s), a.sim_scans, input_base,
-                                           a.beam_step, dense);
-      std::move(ex.begin(), ex.end(), std::back_inserter(data));
+      const auto seed = 1000 + static_cast<std::uint64_t>(s);
+      if (a.sim_style != "sensor") {
+        auto ex = densify::simulatorExamples(seed, a.sim_scans, input_base, a.beam_step, dense);
+        std::move(ex.begin(), ex.end(), std::back_inserter(data));
+      }
+      if (a.sim_style != "clean" && dense.rows == input_base.rows) {
+        auto ex = densify::sensorLikeSimulatorExamples(seed + 500, a.sim_scans, dense, a.beam_step);
+        std::move(ex.begin(), ex.end(), std::back_inserter(data));
+      }
       progress.step(static_cast<std::size_t>(s + 1));
     }
   }
@@ -84,9 +90,16 @@ int runTrain(const TrainArgs& a) {
   const bool resume = !a.checkpoint.empty() && std::filesystem::exists(a.checkpoint);
   densify::IlnUpsampler net =
       resume ? densify::IlnUpsampler::load(a.checkpoint)
-             : densify::IlnUpsampler(
-                   a.model == "full" ? densify::IlnOptions::full() : densify::IlnOptions::compact(), a.seed);
-  if (resume) spdlog::info("resuming {} at step {}", a.checkpoint, net.step());
+      : !a.init.empty()
+          ? densify::IlnUpsampler::load(a.init)
+          : densify::IlnUpsampler(
+                a.model == "full" ? densify::IlnOptions::full() : densify::IlnOptions::compact(), a.seed);
+  if (resume) {
+    spdlog::info("resuming {} at step {}", a.checkpoint, net.step());
+  } else if (!a.init.empty()) {
+    net.restartTraining();  // fine-tuning: these weights, a fresh optimiser, step 0
+    spdlog::info("fine-tuning from {}", a.init);
+  }
   spdlog::info("model: {} blocks, {} channels, {} heads, MLP {}: {} parameters", net.options().blocks,
                net.options().channels, net.options().heads, net.options().mlp, net.parameterCount());
   std::mt19937 rng(static_cast<unsigned>(a.seed + net.step()));
@@ -157,6 +170,11 @@ int runEval(const EvalArgs& a) {
       methods.push_back(std::make_unique<densify::BilinearUpsampler>());
     } else if (m == "nearest") {
       methods.push_back(std::make_unique<densify::NearestUpsampler>());
+    } else if (m.rfind("iln:", 0) == 0) {
+      // iln:PATH — any weights file, named after it (e.g. iln:out/iln_kitti.pt -> iln-iln_kitti).
+      auto net = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(m.substr(4)));
+      net->setName("iln-" + std::filesystem::path(m.substr(4)).stem().string());
+      methods.push_back(std::move(net));
     } else if (m == "iln" || m == "iln-compact" || m == "iln-full") {
       const std::string w = m == "iln-full"
                                 ? (a.full_weights.empty() ? defaultWeights("iln_full.pt") : a.full_weights)
@@ -172,10 +190,12 @@ int runEval(const EvalArgs& a) {
   for (auto& method : methods) {
     densify::ReconstructionScore sum;
     double ms = 0;
+    std::vector<double> times;
     for (const auto& [pair, points] : pairs) {
       const auto t0 = Clock::now();
       const auto predicted = method->upsample(pair.input, pair.target.geometry);
-      ms += seconds(t0) * 1000.0;
+      times.push_back(seconds(t0) * 1000.0);
+      ms += times.back();
       const auto s = densify::scoreReconstruction(predicted, pair.target, points);
       sum.mae_m += s.mae_m;
       sum.iou += s.iou;
@@ -184,16 +204,21 @@ int runEval(const EvalArgs& a) {
       sum.f1 += s.f1;
     }
     const double n = static_cast<double>(std::max<std::size_t>(1, pairs.size()));
-    nlohmann::json j = {{"method", method->name()}, {"source", described}, {"scans", pairs.size()},
-                        {"mae_m", sum.mae_m / n},   {"iou", sum.iou / n},  {"precision", sum.precision / n},
-                        {"recall", sum.recall / n}, {"f1", sum.f1 / n},    {"ms_per_scan", ms / n},
-                        {"threads", a.threads}};
+    // The median resists this noisy 2-core machine's outliers (and the first call's warm-up).
+    std::sort(times.begin(), times.end());
+    const double median = times.empty() ? 0.0 : times[times.size() / 2];
+    nlohmann::json j = {
+        {"method", method->name()},     {"source", described}, {"scans", pairs.size()},
+        {"mae_m", sum.mae_m / n},       {"iou", sum.iou / n},  {"precision", sum.precision / n},
+        {"recall", sum.recall / n},     {"f1", sum.f1 / n},    {"ms_per_scan", ms / n},
+        {"ms_per_scan_median", median}, {"threads", a.threads}};
     if (a.json) {
       std::printf("%s\n", j.dump().c_str());
     } else {
-      std::printf("%-12s MAE %.3f m  IoU %.3f  precision %.3f  recall %.3f  F1 %.3f  %.1f ms/scan\n",
-                  method->name().c_str(), sum.mae_m / n, sum.iou / n, sum.precision / n, sum.recall / n,
-                  sum.f1 / n, ms / n);
+      std::printf(
+          "%-12s MAE %.3f m  IoU %.3f  precision %.3f  recall %.3f  F1 %.3f  %.1f ms/scan (median %.1f)\n",
+          method->name().c_str(), sum.mae_m / n, sum.iou / n, sum.precision / n, sum.recall / n, sum.f1 / n,
+          ms / n, median);
     }
     std::fflush(stdout);
   }
@@ -217,6 +242,7 @@ int main(int argc, char** argv) {
   train->add_option("--out", t.out, "where to write the trained weights")->required();
   train->add_option("--checkpoint", t.checkpoint,
                     "checkpoint with the optimiser state; an existing one is resumed");
+  train->add_option("--init", t.init, "start from these weights (fine-tuning; --model is then theirs)");
   train->add_option("--steps", t.steps, "total optimisation steps (a resumed run continues to this)")
       ->capture_default_str();
   train->add_option("--kitti", t.kitti, "a 64-beam scan source to add (e.g. ../shared/data/kitti00)");
@@ -224,6 +250,12 @@ int main(int argc, char** argv) {
   train->add_option("--sim-scenes", t.sim_scenes, "procedural scenes rendered for training")
       ->capture_default_str();
   train->add_option("--sim-scans", t.sim_scans, "poses per scene")->capture_default_str();
+  train
+      ->add_option("--sim-style", t.sim_style,
+                   "clean (renders on the pixel grid), sensor (projected like real scans: offset beams, 2048 "
+                   "returns per beam, 2 cm noise) or both")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"clean", "sensor", "both"}));
   train->add_option("--target-rows", t.target_rows, "target beams (64; 128 with --target-columns 2048)")
       ->capture_default_str();
   train->add_option("--target-columns", t.target_columns, "target columns")->capture_default_str();
@@ -246,7 +278,8 @@ int main(int argc, char** argv) {
   eval->add_option("--source", e.source,
                    "64-beam scans (sequence directory, KITTI layout...) or 'sim' (default)");
   eval->add_option("--scans", e.scans, "scan range FIRST:LAST");
-  eval->add_option("--methods", e.methods, "comma list of iln, iln-compact, iln-full, bilinear, nearest")
+  eval->add_option("--methods", e.methods,
+                   "comma list of iln, iln-compact, iln-full, iln:WEIGHTS, bilinear, nearest")
       ->capture_default_str();
   eval->add_option("--weights", e.weights,
                    "weights for iln / iln-compact (default models/iln/iln_compact.pt)");

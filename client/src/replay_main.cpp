@@ -17,6 +17,7 @@
 #include "common/cli_common.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
+#include "densemap/densify/range_image.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -36,7 +37,7 @@ int main(int argc, char** argv) {
   msg::DdsOptions dds;
   std::string source = "sim", scans, prefix = "robot", offset_text = "0,0,0", summary_json,
               log_level = "info";
-  int robots = 1, loops = 1, query_clients = 0, first_robot = 0;
+  int robots = 1, loops = 1, query_clients = 0, first_robot = 0, beam_step = 0;
   std::size_t max_scans = 0;
   double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
   std::string center_text = "0,0,0", query_kind = "points";
@@ -53,6 +54,10 @@ int main(int argc, char** argv) {
          ".graph")
       ->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
+  app.add_option(
+         "--keep-every-nth-beam", beam_step,
+         "send every n-th beam of each scan (4: a 16-beam LiDAR from a 64-beam one), with that geometry")
+      ->capture_default_str();
   app.add_option("--robots", robots,
                  "robots publishing the source at once (0: only run --query-clients for --duration)")
       ->capture_default_str()
@@ -116,6 +121,16 @@ int main(int argc, char** argv) {
       cli::Progress progress("reading", range.last - range.first + 1);
       for (std::size_t i = range.first; i <= range.last; ++i) {
         data.push_back(src->read(i));
+        if (beam_step > 1) {
+          // A sparse LiDAR from a dense one: every n-th beam of the scan's range image (its geometry, or the
+          // KITTI HDL-64E layout), sent with the sparse geometry so a server can densify it.
+          io::Scan& s = data.back();
+          const auto image = densify::keepEveryNthRow(
+              densify::project(s.sensorPoints(), s.lidar.value_or(io::LidarGeometry{})), beam_step);
+          s.points = densify::toPoints(image);
+          s.frame = io::PointFrame::kSensor;
+          s.lidar = image.geometry;
+        }
         progress.step(data.size());
       }
     }

@@ -1,6 +1,7 @@
 #include "densemap/densify/densify_dataset.h"
 
 #include <cmath>
+#include <random>
 #include <unordered_set>
 
 namespace densemap::densify {
@@ -29,6 +30,33 @@ std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scan
     RangeImagePair ex;
     ex.input = project(sim.render(static_cast<std::size_t>(i), sparse).sensorPoints(), sparse);
     ex.target = project(sim.render(static_cast<std::size_t>(i), target).sensorPoints(), target);
+    out.push_back(std::move(ex));
+  }
+  return out;
+}
+
+std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed, int scans,
+                                                        const LidarGeometry& dense, int beam_step) {
+  io::LidarSimulatorOptions o;
+  o.scans = scans;
+  o.scene.seed = scene_seed;
+  o.seed = scene_seed;
+  o.range_noise = 0.02;
+  o.speed = std::max(1.0, (o.scene.length - 30.0) / std::max(1, scans));
+  o.start_x = -o.scene.length / 2 + 15.0;
+  const io::LidarSimulator sim(o);
+  std::mt19937_64 rng(scene_seed);
+  const double row_step = (dense.fov_up_deg - dense.fov_down_deg) / std::max(1, dense.rows - 1);
+  std::uniform_real_distribution<double> shift(-row_step / 3, row_step / 3);
+  LidarGeometry sensor = dense;
+  sensor.columns = 2 * dense.columns;
+  sensor.fov_up_deg += shift(rng);
+  sensor.fov_down_deg += shift(rng);
+  std::vector<RangeImagePair> out;
+  for (int i = 0; i < scans; ++i) {
+    RangeImagePair ex;
+    ex.target = project(sim.render(static_cast<std::size_t>(i), sensor).sensorPoints(), dense);
+    ex.input = keepEveryNthRow(ex.target, beam_step);
     out.push_back(std::move(ex));
   }
   return out;

@@ -301,6 +301,11 @@ IlnUpsampler& IlnUpsampler::operator=(IlnUpsampler&&) noexcept = default;
 
 const IlnOptions& IlnUpsampler::options() const { return impl_->options; }
 std::uint64_t IlnUpsampler::step() const { return impl_->step; }
+void IlnUpsampler::restartTraining() {
+  impl_->adam.reset();
+  impl_->step = 0;
+  impl_->fast.reset();
+}
 void IlnUpsampler::setThreads(int threads) { at::set_num_threads(std::max(1, threads)); }
 
 std::size_t IlnUpsampler::parameterCount() const {

@@ -21,6 +21,14 @@ std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scan
                                               const LidarGeometry& input_base, int beam_step,
                                               const LidarGeometry& target);
 
+/// Simulator pairs made the way real scans are (exampleFromScan): a sensor whose beams do not sit exactly on
+/// the image grid (field of view shifted by up to a third of a beam, per scene), 2048 returns per beam and
+/// 2 cm range noise, projected on `dense` (collisions and empty pixels as in KITTI's projection); the input
+/// is every `beam_step`-th row of that image. Training on these closes most of the gap between clean
+/// renders and real range images.
+std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed, int scans,
+                                                        const LidarGeometry& dense, int beam_step);
+
 /// Point-reconstruction and range accuracy of a predicted image (Sec. 4.4.2).
 struct ReconstructionScore {
   double mae_m = 0;        ///< mean |predicted - target| range over pixels both have

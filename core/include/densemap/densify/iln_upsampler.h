@@ -66,6 +66,9 @@ class IlnUpsampler : public RangeUpsampler {
   /// the two; both compute the same function).
   void useFastHead(bool on) { use_fast_head_ = on; }
 
+  /// Keeps the weights but forgets the optimiser state and the step count (fine-tuning starts here).
+  void restartTraining();
+
   /// Threads libtorch may use (at::set_num_threads; its default here is 1).
   static void setThreads(int threads);
 
