@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <random>
+#include <sstream>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
@@ -49,6 +50,7 @@ struct TrainArgs {
   std::string model = "compact", out, checkpoint, init, kitti, kitti_scans = "0:49", sim_style = "both";
   int steps = 2000, sim_scenes = 8, sim_scans = 12, threads = 2, log_every = 50, checkpoint_every = 250;
   int target_rows = 64, target_columns = 1024, beam_step = 4;
+  std::vector<std::string> extra_targets;  // "RxC": more clean-render target sizes
   std::uint64_t seed = 1;
   densify::IlnTrainOptions train;
 };
@@ -57,6 +59,18 @@ int runTrain(const TrainArgs& a) {
   densify::IlnUpsampler::setThreads(a.threads);
   const LidarGeometry dense{a.target_rows, a.target_columns, 2.0, -24.9, 360.0};
   const LidarGeometry input_base{64, 1024, 2.0, -24.9, 360.0};
+  // More target sizes teach the model queries that fall between input columns (at 64x1024 from 16x1024
+  // every query shares its column with the input), which a resolution-free model needs (Sec. 4.3).
+  std::vector<LidarGeometry> extra;
+  for (const std::string& size : a.extra_targets) {
+    int rows = 0, columns = 0;
+    char x = 0;
+    std::istringstream in(size);
+    if (!(in >> rows >> x >> columns) || x != 'x' || rows <= 0 || columns <= 0 || !in.eof())
+      throw std::invalid_argument("--extra-targets: '" + size + "' is not ROWSxCOLUMNS (e.g. 128x2048)");
+    extra.push_back(
+        LidarGeometry{rows, columns, dense.fov_up_deg, dense.fov_down_deg, dense.fov_horizontal_deg});
+  }
   std::vector<densify::RangeImagePair> data;
   const auto t_data = Clock::now();
   {
@@ -66,6 +80,10 @@ int runTrain(const TrainArgs& a) {
       const auto seed = 1000 + static_cast<std::uint64_t>(s);
       if (a.sim_style != "sensor") {
         auto ex = densify::simulatorExamples(seed, a.sim_scans, input_base, a.beam_step, dense);
+        std::move(ex.begin(), ex.end(), std::back_inserter(data));
+      }
+      for (const LidarGeometry& target : extra) {
+        auto ex = densify::simulatorExamples(seed, a.sim_scans, input_base, a.beam_step, target);
         std::move(ex.begin(), ex.end(), std::back_inserter(data));
       }
       if (a.sim_style != "clean" && dense.rows == input_base.rows) {
@@ -259,6 +277,10 @@ int main(int argc, char** argv) {
   train->add_option("--target-rows", t.target_rows, "target beams (64; 128 with --target-columns 2048)")
       ->capture_default_str();
   train->add_option("--target-columns", t.target_columns, "target columns")->capture_default_str();
+  train
+      ->add_option("--extra-targets", t.extra_targets,
+                   "more target sizes ROWSxCOLUMNS for the simulator scenes (clean renders), e.g. 128x2048")
+      ->delimiter(',');
   train->add_option("--beam-step", t.beam_step, "input keeps every n-th beam (4: 64 -> 16)")
       ->capture_default_str();
   train->add_option("--batch", t.train.batch, "crops per step")->capture_default_str();

@@ -25,8 +25,8 @@ class QueryClient::Listener : public dds::DataReaderListener {
 
 QueryClient::QueryClient(msg::DdsNode& node, std::string client_id) : node_(node), id_(std::move(client_id)) {
   listener_ = std::make_unique<Listener>(*this);
-  auto* requests = node_.topic(msg::kQueryRequestTopic, dds::TypeSupport(new msg::QueryRequestPubSubType()));
-  auto* replies = node_.topic(msg::kQueryReplyTopic, dds::TypeSupport(new msg::QueryReplyPubSubType()));
+  auto* requests = node_.topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
+  auto* replies = node_.topic(msg::kQueryReplyTopic, msg::typeSupport<msg::QueryReplyPubSubType>());
   writer_ = node_.writer(requests, msg::kMessageWriterProfile);
   // Replies to other clients are skipped here by client_id. (A DDS SQL content filter would do it on the
   // writer's side, but Fast DDS 2.9 evaluates it on a dynamic-type copy of the sample, which took seconds
@@ -46,11 +46,7 @@ bool QueryClient::waitForServer(std::chrono::milliseconds timeout) {
   // both directions work.
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
-    dds::PublicationMatchedStatus pub;
-    dds::SubscriptionMatchedStatus sub;
-    writer_->get_publication_matched_status(pub);
-    reader_->get_subscription_matched_status(sub);
-    if (pub.current_count > 0 && sub.current_count > 0) {
+    if (msg::matchedBothWays(*writer_, *reader_)) {
       msg::QueryRequest probe;
       probe.kind(msg::QUERY_POINTS);
       try {

@@ -29,9 +29,9 @@ class ScanPublisher::Listener : public dds::DataReaderListener {
 
 ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node) {
   listener_ = std::make_unique<Listener>(*this);
-  auto* scans = node_.topic(msg::kScanTopic, dds::TypeSupport(new msg::ScanPubSubType()));
-  auto* acks = node_.topic(msg::kScanAckTopic, dds::TypeSupport(new msg::ScanAckPubSubType()));
-  auto* stats = node_.topic(msg::kStatisticsTopic, dds::TypeSupport(new msg::ServerStatisticsPubSubType()));
+  auto* scans = node_.topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
+  auto* acks = node_.topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
+  auto* stats = node_.topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
   writer_ = node_.writer(scans, msg::kScanWriterProfile);
   ack_reader_ = node_.reader(acks, msg::kMessageReaderProfile, listener_.get());
   stats_reader_ = node_.reader(stats, msg::kMessageReaderProfile, listener_.get());
@@ -51,11 +51,7 @@ bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   std::optional<std::chrono::steady_clock::time_point> matched_at;
   while (std::chrono::steady_clock::now() < deadline) {
-    dds::PublicationMatchedStatus pub;
-    dds::SubscriptionMatchedStatus sub;
-    writer_->get_publication_matched_status(pub);
-    ack_reader_->get_subscription_matched_status(sub);
-    if (pub.current_count > 0 && sub.current_count > 0) {
+    if (msg::matchedBothWays(*writer_, *ack_reader_)) {
       if (!matched_at) matched_at = std::chrono::steady_clock::now();
       if (lastStatistics() ||
           std::chrono::steady_clock::now() - *matched_at > std::chrono::milliseconds(2500)) {

@@ -41,6 +41,14 @@ void loadProfiles(const std::string& file) {
 
 }  // namespace
 
+bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastdds::dds::DataReader& reader) {
+  eprosima::fastdds::dds::PublicationMatchedStatus pub;
+  eprosima::fastdds::dds::SubscriptionMatchedStatus sub;
+  writer.get_publication_matched_status(pub);
+  reader.get_subscription_matched_status(sub);
+  return pub.current_count > 0 && sub.current_count > 0;
+}
+
 std::int64_t nowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::system_clock::now().time_since_epoch())

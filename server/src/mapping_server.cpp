@@ -133,13 +133,11 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
     msg::DdsOptions dds = options_.dds;
     dds.name = options_.server_id;
     node_ = std::make_unique<msg::DdsNode>(dds);
-    auto* scans = node_->topic(msg::kScanTopic, dds::TypeSupport(new msg::ScanPubSubType()));
-    auto* acks = node_->topic(msg::kScanAckTopic, dds::TypeSupport(new msg::ScanAckPubSubType()));
-    auto* requests =
-        node_->topic(msg::kQueryRequestTopic, dds::TypeSupport(new msg::QueryRequestPubSubType()));
-    auto* replies = node_->topic(msg::kQueryReplyTopic, dds::TypeSupport(new msg::QueryReplyPubSubType()));
-    auto* stats =
-        node_->topic(msg::kStatisticsTopic, dds::TypeSupport(new msg::ServerStatisticsPubSubType()));
+    auto* scans = node_->topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
+    auto* acks = node_->topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
+    auto* requests = node_->topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
+    auto* replies = node_->topic(msg::kQueryReplyTopic, msg::typeSupport<msg::QueryReplyPubSubType>());
+    auto* stats = node_->topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
     ack_writer_ = node_->writer(acks, msg::kMessageWriterProfile);
     reply_writer_ = node_->writer(replies, msg::kMessageWriterProfile);
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);

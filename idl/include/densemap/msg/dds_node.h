@@ -85,6 +85,17 @@ class DdsNode {
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
 };
 
+/// The type support of a generated PubSubType. Fast DDS takes ownership through a raw pointer; make_unique
+/// + release keeps `new` out of our code and the hand-over in one place.
+template <class PubSubType>
+eprosima::fastdds::dds::TypeSupport typeSupport() {
+  return eprosima::fastdds::dds::TypeSupport(std::make_unique<PubSubType>().release());
+}
+
+/// True when `writer` has matched a reader and `reader` a writer: our side of a request-reply pair sees a
+/// peer. Matching is not symmetric, so the peer may not see us yet (the clients' waitForServer handles that).
+bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastdds::dds::DataReader& reader);
+
 /// System clock in nanoseconds (the clock scan stamps and latencies use; hosts are assumed NTP-synced).
 std::int64_t nowNs();
 

@@ -49,12 +49,7 @@ class BoundedQueue {
   /// Removes the oldest item without waiting.
   std::optional<T> tryPop() {
     std::unique_lock lock(mutex_);
-    if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
-    items_.pop_front();
-    lock.unlock();
-    not_full_.notify_one();
-    return item;
+    return takeFront(lock);
   }
 
   /// Waits up to `timeout` for an item; nullopt on timeout or when closed and empty.
@@ -62,12 +57,7 @@ class BoundedQueue {
   std::optional<T> pop(std::chrono::duration<Rep, Period> timeout) {
     std::unique_lock lock(mutex_);
     not_empty_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
-    if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
-    items_.pop_front();
-    lock.unlock();
-    not_full_.notify_one();
-    return item;
+    return takeFront(lock);
   }
 
   /// Wakes every waiter; producers stop waiting, consumers drain what is left.
@@ -93,6 +83,16 @@ class BoundedQueue {
   OverflowPolicy policy() const { return policy_; }
 
  private:
+  /// Removes the front item (if any) under `lock`, then releases the lock and wakes one producer.
+  std::optional<T> takeFront(std::unique_lock<std::mutex>& lock) {
+    if (items_.empty()) return std::nullopt;
+    std::optional<T> item(std::move(items_.front()));
+    items_.pop_front();
+    lock.unlock();
+    not_full_.notify_one();
+    return item;
+  }
+
   const std::size_t capacity_;
   const OverflowPolicy policy_;
   mutable std::mutex mutex_;
