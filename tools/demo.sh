@@ -8,11 +8,16 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/tools/install-deps.sh"
-"$root/tools/build.sh" > /dev/null
-source="${1:-sim:scans=30}"
-domain="${DENSEMAP_DOMAIN:-42}"
 out="$root/out"
 mkdir -p "$out"
+echo "== building (the first build takes ~15 minutes on 2 cores; progress in out/build.log)"
+if ! "$root/tools/build.sh" > "$out/build.log" 2>&1; then
+  tail -n 40 "$out/build.log" >&2
+  echo "demo: the build failed (above; the whole log is out/build.log)" >&2
+  exit 1
+fi
+source="${1:-sim:scans=30}"
+domain="${DENSEMAP_DOMAIN:-42}"
 bin="$root/build"
 dds=(--domain "$domain" --loopback)
 
