@@ -60,21 +60,6 @@ bool ScanEvidence::insideBox(const VoxelKey& key) const {
   return true;
 }
 
-std::atomic<EvidenceBlock*>* ScanEvidence::slot(const VoxelKey& key) const {
-  const int bx = (key[0] >> kBlockShift) - lo_[0];
-  const int by = (key[1] >> kBlockShift) - lo_[1];
-  const int bz = (key[2] >> kBlockShift) - lo_[2];
-  if (static_cast<unsigned>(bx) >= static_cast<unsigned>(dims_[0]) ||
-      static_cast<unsigned>(by) >= static_cast<unsigned>(dims_[1]) ||
-      static_cast<unsigned>(bz) >= static_cast<unsigned>(dims_[2]))
-    return nullptr;
-  const std::size_t idx =
-      (static_cast<std::size_t>(bx) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(by)) *
-          static_cast<std::size_t>(dims_[2]) +
-      static_cast<std::size_t>(bz);
-  return &directory_[idx];
-}
-
 EvidenceBlock* ScanEvidence::allocate() {
   const std::size_t i = used_.fetch_add(1);
   if (i >= capacity()) throw std::length_error("ScanEvidence: scan touches too many blocks");
@@ -104,11 +89,6 @@ EvidenceBlock* ScanEvidence::allocate() {
     }
   }
   return b;
-}
-
-EvidenceBlock* ScanEvidence::findBlock(const VoxelKey& key) const {
-  const auto* s = slot(key);
-  return s ? s->load(std::memory_order_acquire) : nullptr;
 }
 
 EvidenceBlock* ScanEvidence::block(const VoxelKey& key) {

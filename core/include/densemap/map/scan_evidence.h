@@ -156,8 +156,13 @@ class ScanEvidence {
   void markFree(const VoxelKey& key);
   void markHit(const VoxelKey& key);
 
-  /// The block holding `key`, or null if nothing was recorded there (or it lies outside the box).
-  EvidenceBlock* findBlock(const VoxelKey& key) const;
+  /// The block holding `key`, or null if nothing was recorded there (or it lies outside the box). Inline:
+  /// the ray walks call it whenever a ray enters a block, and an out-of-line call there makes the compiler
+  /// spill the walk's floating-point state on every step.
+  EvidenceBlock* findBlock(const VoxelKey& key) const {
+    const auto* s = slot(key);
+    return s ? s->load(std::memory_order_acquire) : nullptr;
+  }
   /// The block holding `key`, created if needed; null only outside the box.
   EvidenceBlock* block(const VoxelKey& key);
 
@@ -208,7 +213,20 @@ class ScanEvidence {
   };
   std::size_t capacity() const { return kChunkBlocks * kMaxChunks; }
   EvidenceBlock* allocate();
-  std::atomic<EvidenceBlock*>* slot(const VoxelKey& key) const;
+  std::atomic<EvidenceBlock*>* slot(const VoxelKey& key) const {
+    const int bx = (key[0] >> kBlockShift) - lo_[0];
+    const int by = (key[1] >> kBlockShift) - lo_[1];
+    const int bz = (key[2] >> kBlockShift) - lo_[2];
+    if (static_cast<unsigned>(bx) >= static_cast<unsigned>(dims_[0]) ||
+        static_cast<unsigned>(by) >= static_cast<unsigned>(dims_[1]) ||
+        static_cast<unsigned>(bz) >= static_cast<unsigned>(dims_[2]))
+      return nullptr;
+    const std::size_t idx =
+        (static_cast<std::size_t>(bx) * static_cast<std::size_t>(dims_[1]) + static_cast<std::size_t>(by)) *
+            static_cast<std::size_t>(dims_[2]) +
+        static_cast<std::size_t>(bz);
+    return &directory_[idx];
+  }
   void addOverflow(const VoxelKey& key, std::uint32_t nf, std::uint32_t nh, bool saturate);
 
   bool counting_ = false;
@@ -254,7 +272,8 @@ class EvidenceCursor {
   /// The block of `key`, allocated if needed; null only outside the scan's box.
   [[gnu::always_inline]] EvidenceBlock* get(const VoxelKey& key) {
     EvidenceBlock* b = find(key);
-    if (b == nullptr) block_ = b = ev_.block(key);
+    if (b == nullptr) [[unlikely]]
+      b = allocate(key);
     return b;
   }
   /// Membership of `key` in a bit plane of its block (false where no block exists).
@@ -265,17 +284,17 @@ class EvidenceCursor {
   }
   [[gnu::always_inline]] bool inRegion(const VoxelKey& key) { return has<&EvidenceBlock::region>(key); }
   [[gnu::always_inline]] void markFree(const VoxelKey& key) {
-    if (EvidenceBlock* b = get(key)) {
+    if (EvidenceBlock* b = get(key)) [[likely]] {
       b->free.setAtomic(voxelIndexInBlock(key));
     } else {
-      ev_.markFree(key);
+      markOverflow(key, false);
     }
   }
   [[gnu::always_inline]] void markHit(const VoxelKey& key) {
-    if (EvidenceBlock* b = get(key)) {
+    if (EvidenceBlock* b = get(key)) [[likely]] {
       b->hit.setAtomic(voxelIndexInBlock(key));
     } else {
-      ev_.markHit(key);
+      markOverflow(key, true);
     }
   }
   [[gnu::always_inline]] void addHit(const VoxelKey& key, std::uint32_t w) {
@@ -300,6 +319,18 @@ class EvidenceCursor {
   }
 
  private:
+  // The rare paths stay out of line and cold, so the walks keep their state in registers.
+  [[gnu::noinline, gnu::cold]] EvidenceBlock* allocate(const VoxelKey& key) {
+    return block_ = ev_.block(key);
+  }
+  [[gnu::noinline, gnu::cold]] void markOverflow(const VoxelKey& key, bool hit) {
+    if (hit) {
+      ev_.markHit(key);
+    } else {
+      ev_.markFree(key);
+    }
+  }
+
   ScanEvidence& ev_;
   unsigned k0_ = 0, k1_ = 0, k2_ = 0;
   bool valid_ = false;
