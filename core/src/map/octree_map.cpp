@@ -45,7 +45,8 @@ using Entry = OctreeMap::Entry;
 /// counter is added to the real tree at the end), so no OctoMap state is shared between threads.
 class BatchTreeUpdater {
  public:
-  static constexpr unsigned kSplitDepth = 10;  // subtrees of 64^3 voxels: many independent tasks per scan
+  static constexpr unsigned kSplitDepth =
+      12;  // subtrees of 16^3 voxels: enough tasks per scan to balance two or more threads
 
   /// `factories`: empty OcTrees reused across scans as per-thread node factories (an OcTree allocates a
   /// large ray buffer when constructed, so they are kept by the map).
@@ -119,8 +120,16 @@ class BatchTreeUpdater {
     const unsigned level = kTreeDepth - 1 - depth;
     for (Entry* it = b; it != e;) {
       const unsigned pos = childIndex(it->key, level);
-      Entry* run_end = it + 1;
-      while (run_end != e && childIndex(run_end->key, level) == pos) ++run_end;
+      // Entries are in Morton order, so each child's entries are one run; near the root the runs are long
+      // and a binary search finds their ends without reading every entry at every level.
+      Entry* run_end;
+      if (e - it > 64) {
+        run_end =
+            std::partition_point(it + 1, e, [&](const Entry& x) { return childIndex(x.key, level) == pos; });
+      } else {
+        run_end = it + 1;
+        while (run_end != e && childIndex(run_end->key, level) == pos) ++run_end;
+      }
       bool created = false;
       if (!factory.nodeChildExists(node, pos)) {
         factory.createNodeChild(node, pos);

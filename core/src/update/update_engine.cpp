@@ -57,17 +57,15 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   // or whose end leaves the key range are dropped, as OctoMap drops them.
   std::vector<Vec3f>& ends = ends_;
   std::vector<Vec3f>& cut_ends = cut_ends_;  // rays cut at max range: free only
-  ends.clear();
-  cut_ends.clear();
-  ends.reserve(points.size());
-  VoxelKey lo = origin_key, hi = origin_key;
-  // Range cut, key range check and bounding box, in parallel; then compacted in input order.
   const std::size_t n = points.size();
   clipped_.resize(n);
   kind_.resize(n);
-  std::uint64_t rejected = 0;
-  int blo[3] = {lo[0], lo[1], lo[2]}, bhi[3] = {hi[0], hi[1], hi[2]};
-#pragma omp parallel for schedule(static) reduction(+ : rejected) reduction(min : blo[:3]) reduction(max : bhi[:3])
+  keys_.resize(n);
+  std::uint64_t rejected = 0, cut = 0;
+  int blo[3] = {origin_key[0], origin_key[1], origin_key[2]}, bhi[3] = {blo[0], blo[1], blo[2]};
+  // Range cut, key range check and bounding box, in parallel; then compacted in input order.
+#pragma omp parallel for schedule(static) reduction(+ : rejected, cut) reduction(min : blo[:3]) \
+    reduction(max : bhi[:3])
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3f& p = points[i];
     VoxelKey k;
@@ -87,18 +85,27 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
       bhi[a] = std::max<int>(bhi[a], k[a]);
     }
     clipped_[i] = c.end;
+    keys_[i] = k;  // the endpoint's cell, marked occupied after the walks
     kind_[i] = c.hit ? 1 : 2;
+    cut += c.hit ? 0 : 1;
   }
   st.rejected = rejected;
+  VoxelKey lo, hi;
   for (int a = 0; a < 3; ++a) {
     lo[a] = static_cast<geometry::KeyCoord>(blo[a]);
     hi[a] = static_cast<geometry::KeyCoord>(bhi[a]);
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (kind_[i] == 1)
-      ends.push_back(clipped_[i]);
-    else if (kind_[i] == 2)
-      cut_ends.push_back(clipped_[i]);
+  // Sized up front and filled by index (push_back's capacity checks cost more than the copies here).
+  ends.resize(n - rejected - cut);
+  cut_ends.resize(cut);
+  end_keys_.resize(ends.size());
+  for (std::size_t i = 0, e = 0, c = 0; i < n; ++i) {
+    if (kind_[i] == 1) {
+      end_keys_[e] = keys_[i];
+      ends[e++] = clipped_[i];
+    } else if (kind_[i] == 2) {
+      cut_ends[c++] = clipped_[i];
+    }
   }
   // Rounding can let OctoMap's walk step one cell past the endpoint's box; pad it.
   for (int a = 0; a < 3; ++a) {
@@ -121,11 +128,12 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     generator_.generate(conv, origin, ends, rays, &sst);
     st.super_rays = sst.super_rays;
     st.grouped_points = sst.grouped_points;
+    for (const Vec3f& e : cut_ends) rays.push_back({e, 1});
   } else {
-    rays.reserve(ends.size());
-    for (const Vec3f& e : ends) rays.push_back({e, 1});
+    rays.resize(ends.size() + cut_ends.size());
+    for (std::size_t i = 0; i < ends.size(); ++i) rays[i] = {ends[i], 1};
+    for (std::size_t i = 0; i < cut_ends.size(); ++i) rays[ends.size() + i] = {cut_ends[i], 1};
   }
-  for (const Vec3f& e : cut_ends) rays.push_back({e, 1});
   st.rays = rays.size();
   if (use_culling) st.region_cells = CullingRegion::build(map, origin_key, evidence_).cells;
   st.generation_ms = msSince(tg);
@@ -168,10 +176,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
 #pragma omp parallel
   {
     map::EvidenceCursor cursor(ev);
+    const std::vector<VoxelKey>& end_keys = end_keys_;
 #pragma omp for schedule(static) nowait
-    for (std::size_t i = 0; i < ends.size(); ++i) {
-      VoxelKey k;
-      conv.toKey(ends[i], k);
+    for (std::size_t i = 0; i < end_keys.size(); ++i) {
+      const VoxelKey& k = end_keys[i];
       if (counting) {
         cursor.addHit(k, 1);
       } else {

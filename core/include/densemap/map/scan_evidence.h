@@ -37,11 +37,20 @@ constexpr std::array<std::uint16_t, kBlockSide> makeSpread() {
   return t;
 }
 inline constexpr std::array<std::uint16_t, kBlockSide> kSpread = makeSpread();
+/// Gathers bits 0, 3, 6 and 9 of m into bits 0-3 (the inverse of kSpread), with shifts instead of a loop:
+/// block listings call it for every cell of a scan.
 constexpr int compact(int m) {
-  int v = 0;
-  for (int b = 0; b < kBlockShift; ++b) v |= ((m >> (3 * b)) & 1) << b;
-  return v;
+  static_assert(kBlockShift == 4);
+  int v = m & 0x249;
+  v = (v | (v >> 2)) & 0x0C3;     // bits 0,3,6,9 -> 0,1,6,7
+  return (v | (v >> 4)) & 0x00F;  // -> 0,1,2,3
 }
+constexpr bool compactInvertsSpread() {
+  for (int v = 0; v < kBlockSide; ++v)
+    if (compact(kSpread[static_cast<std::size_t>(v)]) != v) return false;
+  return true;
+}
+static_assert(compactInvertsSpread());
 }  // namespace detail
 
 inline int voxelIndexInBlock(const VoxelKey& key) {

@@ -88,6 +88,7 @@ class UpdateEngine {
   // Per-scan buffers kept between scans (large, so reallocating them would page-fault every scan).
   std::vector<geometry::Vec3f> ends_, cut_ends_, clipped_;
   std::vector<std::uint8_t> kind_;  // per point: 0 rejected, 1 ray with endpoint, 2 ray cut at max range
+  std::vector<geometry::VoxelKey> keys_, end_keys_;  // per point / per endpoint: the endpoint's cell
   std::vector<SuperRay> rays_;
 };
 
