@@ -18,6 +18,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
+#include "densemap/util/retain_freed_memory.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -166,6 +167,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);
 

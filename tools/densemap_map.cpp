@@ -12,6 +12,7 @@
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
+#include "densemap/util/retain_freed_memory.h"
 
 using namespace densemap;
 
@@ -62,6 +63,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);
 
@@ -109,7 +111,9 @@ int main(int argc, char** argv) {
       total.prepare_ms += st->prepare_ms;
       total.trace_ms += st->trace_ms;
       total.apply_ms += st->apply_ms;
-      spdlog::debug("scan {}: {} points, {:.1f} ms", i, st->points, st->totalMs());
+      spdlog::debug(
+          "scan {}: {} points, {:.1f} ms (prepare {:.1f}, generation {:.1f}, trace {:.1f}, apply {:.1f})", i,
+          st->points, st->totalMs(), st->prepare_ms, st->generation_ms, st->trace_ms, st->apply_ms);
     }
     std::size_t occupied = 0, free_cells = 0;
     const float occ = m->logOddsParams().occupied;

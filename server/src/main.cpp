@@ -8,6 +8,7 @@
 
 #include "common/cli_common.h"
 #include "densemap/server/mapping_server.h"
+#include "densemap/util/retain_freed_memory.h"
 
 using namespace densemap;
 
@@ -103,6 +104,7 @@ int main(int argc, char** argv) {
                "on shutdown drop queued scans (counted) instead of mapping them");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   o.update.method = *update::parseMethod(method);
   o.update.semantics = *map::parseSemantics(semantics);

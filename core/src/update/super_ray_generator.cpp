@@ -4,6 +4,8 @@
 
 #include <omp.h>
 #include <algorithm>
+#include <array>
+#include <bit>
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/mapping_line.h"
@@ -44,6 +46,18 @@ struct Classified {
 
 }  // namespace
 
+void SuperRayGenerator::radixSortByCode(std::vector<CodedIndex>& a, std::vector<CodedIndex>& tmp, int bits) {
+  // LSD, one byte per pass; stable, so equal codes keep their (point index) order.
+  tmp.resize(a.size());
+  for (int shift = 0; shift < bits; shift += 8) {
+    std::array<std::uint32_t, 257> start{};
+    for (const CodedIndex& x : a) ++start[((x.code >> shift) & 0xFFu) + 1];
+    for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+    for (const CodedIndex& x : a) tmp[start[(x.code >> shift) & 0xFFu]++] = x;
+    a.swap(tmp);
+  }
+}
+
 void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
                                  const std::vector<Vec3f>& ends, std::vector<SuperRay>& out,
                                  SuperRayStats* stats, std::vector<std::uint32_t>* assignment) {
@@ -51,15 +65,44 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
   VoxelKey ok;
   if (!conv.toKey(origin, ok)) return;
 
-  // Group the rays by end cell (sort by packed key, then index, for a deterministic grouping).
-  order_.resize(ends.size());
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < ends.size(); ++i) {
+  // Group the rays by end cell: order by (end cell, point index), the cells in (x, y, z) order. A stable
+  // radix sort of the cells' linear index in the scan's key box does it in a few passes; the comparison
+  // sort it replaces took 3-4 ms per KITTI scan.
+  const std::size_t n = ends.size();
+  order_.resize(n);
+  int lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
+#pragma omp parallel for schedule(static) reduction(min : lo[:3]) reduction(max : hi[:3])
+  for (std::size_t i = 0; i < n; ++i) {
     VoxelKey k;
     conv.toKey(ends[i], k);
     order_[i] = {k.packed(), static_cast<std::uint32_t>(i)};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min<int>(lo[a], k[a]);
+      hi[a] = std::max<int>(hi[a], k[a]);
+    }
   }
-  __gnu_parallel::sort(order_.begin(), order_.end());
+  std::uint64_t cells = 1;
+  for (int a = 0; a < 3; ++a) cells *= static_cast<std::uint64_t>(std::max(hi[a] - lo[a] + 1, 1));
+  if (n > 0 && cells <= (std::uint64_t{1} << 32)) {
+    const std::uint64_t span_y = static_cast<std::uint64_t>(hi[1] - lo[1] + 1);
+    const std::uint64_t span_z = static_cast<std::uint64_t>(hi[2] - lo[2] + 1);
+    items_.resize(n);
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) {
+      const VoxelKey k = VoxelKey::fromPacked(order_[i].first);
+      const std::uint64_t code =
+          (static_cast<std::uint64_t>(k[0] - lo[0]) * span_y + static_cast<std::uint64_t>(k[1] - lo[1])) *
+              span_z +
+          static_cast<std::uint64_t>(k[2] - lo[2]);
+      items_[i] = {static_cast<std::uint32_t>(code), static_cast<std::uint32_t>(i)};
+    }
+    radixSortByCode(items_, items_tmp_, std::bit_width(cells - 1));
+    sorted_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) sorted_[i] = order_[items_[i].index];
+    order_.swap(sorted_);
+  } else {
+    __gnu_parallel::sort(order_.begin(), order_.end());
+  }
   group_begin_.clear();
   for (std::size_t i = 0; i < order_.size(); ++i)
     if (i == 0 || order_[i].first != order_[i - 1].first) group_begin_.push_back(i);

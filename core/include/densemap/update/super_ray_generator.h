@@ -57,7 +57,13 @@ class SuperRayGenerator {
 
  private:
   SuperRayOptions options_;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> order_;  // (end cell, point index)
+  struct CodedIndex {
+    std::uint32_t code;   // end cell's linear index in the scan's key box
+    std::uint32_t index;  // point index
+  };
+  static void radixSortByCode(std::vector<CodedIndex>& a, std::vector<CodedIndex>& tmp, int bits);
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> order_, sorted_;  // (end cell, point index)
+  std::vector<CodedIndex> items_, items_tmp_;
   std::vector<std::size_t> group_begin_;
   std::vector<std::vector<SuperRay>> per_thread_;
   std::vector<std::vector<std::uint32_t>> per_thread_first_;  // first member of each ray (for assignment)

@@ -1,0 +1,163 @@
+// traceRays under batch semantics uses walks specialised by step sign with an incrementally stepped
+// Morton index (batch_marking_walk.h). They must mark exactly the cells of OctoMap's computeRayKeys: in
+// every direction, across block boundaries, on exact ties (backward walks fall back to OctoMap's order),
+// outside the scan's evidence box (overflow cells), and stopping at the culling region.
+#include <algorithm>
+#include <random>
+#include <set>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include "densemap/geometry/ray_traversal.h"
+#include "densemap/map/grid_map.h"
+#include "densemap/update/ray_tracer.h"
+
+namespace densemap::update {
+namespace {
+
+using geometry::Vec3f;
+using geometry::VoxelKey;
+
+std::set<std::uint64_t> octomapCells(const octomap::OcTree& tree, const Vec3f& o,
+                                     const std::vector<SuperRay>& rays) {
+  std::set<std::uint64_t> out;
+  octomap::KeyRay ray;
+  for (const SuperRay& r : rays) {
+    if (!tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()),
+                             octomap::point3d(r.end.x(), r.end.y(), r.end.z()), ray))
+      continue;
+    for (const auto& k : ray) out.insert(VoxelKey{{k[0], k[1], k[2]}}.packed());
+  }
+  return out;
+}
+
+std::set<std::uint64_t> markedFree(const map::ScanEvidence& ev) {
+  std::set<std::uint64_t> out;
+  ev.forEachBlock([&](const map::EvidenceBlock& b) {
+    b.forEachEvidenceVoxel([&](int v) {
+      if (b.free.test(v)) out.insert(b.voxelKey(v).packed());
+    });
+  });
+  ev.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t) {
+    if (nf > 0) out.insert(k.packed());
+  });
+  return out;
+}
+
+/// Rays in every direction from an origin off the grid, plus rays from an origin on grid planes through
+/// cell corners (exact ties).
+std::vector<SuperRay> testRays(double res, Vec3f& origin, bool ties) {
+  std::vector<SuperRay> rays;
+  if (ties) {
+    origin = Vec3f(0.0f, 0.0f, 0.0f);
+    const float h = static_cast<float>(res);
+    for (int x = -9; x <= 9; ++x)
+      for (int y = -9; y <= 9; ++y)
+        for (int z = -3; z <= 3; ++z)
+          if (x != 0 || y != 0 || z != 0)
+            rays.push_back(
+                {Vec3f(h * static_cast<float>(x), h * static_cast<float>(y), h * static_cast<float>(z)), 1});
+    return rays;
+  }
+  origin = Vec3f(0.37f, -1.21f, 1.73f);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> pos(-30.0f, 30.0f);
+  for (int i = 0; i < 4000; ++i) rays.push_back({Vec3f(pos(rng), pos(rng), pos(rng) * 0.3f), 1});
+  return rays;
+}
+
+void resetAround(map::ScanEvidence& ev, const geometry::KeyConverter& conv, const Vec3f& o, int half_cells) {
+  VoxelKey ok;
+  ASSERT_TRUE(conv.toKey(o, ok));
+  VoxelKey lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = static_cast<geometry::KeyCoord>(ok[a] - half_cells);
+    hi[a] = static_cast<geometry::KeyCoord>(ok[a] + half_cells);
+  }
+  ev.reset(lo, hi, false);
+}
+
+TEST(TraceRays, BatchWalksMarkExactlyOctomapsCells) {
+  for (double res : {0.1, 0.4}) {
+    for (bool ties : {false, true}) {
+      octomap::OcTree tree(res);
+      map::GridMap grid(res);
+      Vec3f o;
+      const std::vector<SuperRay> rays = testRays(res, o, ties);
+      const std::set<std::uint64_t> expected = octomapCells(tree, o, rays);
+      ASSERT_GT(expected.size(), 1000u);
+      for (bool backward : {false, true}) {
+        // A box far larger than the rays, then one that cuts the random rays (cells outside go to the
+        // overflow map; the tie rays stay within 9 cells).
+        for (int half : {1000, 40}) {
+          map::ScanEvidence ev;
+          resetAround(ev, grid.converter(), o, half);
+          TraceOptions opt;
+          opt.backward = backward;
+          const TraceCounters c = traceRays(grid, ev, o, rays, opt);
+          EXPECT_EQ(markedFree(ev), expected) << "res " << res << (ties ? " ties" : " random")
+                                              << (backward ? " backward" : " forward") << " box " << half;
+          if (half == 40 && !ties) {
+            EXPECT_GT(ev.overflowCount(), 0u) << "the small box should have cut some rays";
+          }
+          if (backward && ties) {
+            EXPECT_GT(c.fallbacks, 0u) << "corner rays should have produced rounding ties";
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(TraceRays, BackwardBatchWalksStopOnEnteringTheRegion) {
+  const double res = 0.2;
+  octomap::OcTree tree(res);
+  map::GridMap grid(res);
+  Vec3f o;
+  const std::vector<SuperRay> rays = testRays(res, o, false);
+  map::ScanEvidence ev;
+  resetAround(ev, grid.converter(), o, 1000);
+  // Region: every cell within 12 cells of the sensor's cell (a ball is closed toward the sensor, as
+  // Alg. 3's region is, so each ray's cells inside it come after all its cells outside it).
+  VoxelKey ok;
+  ASSERT_TRUE(grid.converter().toKey(o, ok));
+  auto inBall = [&](const VoxelKey& k) {
+    int d2 = 0;
+    for (int a = 0; a < 3; ++a) d2 += (k[a] - ok[a]) * (k[a] - ok[a]);
+    return d2 <= 144;
+  };
+  std::set<std::uint64_t> expected;
+  octomap::KeyRay ray;
+  for (const SuperRay& r : rays) {
+    ASSERT_TRUE(tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()),
+                                    octomap::point3d(r.end.x(), r.end.y(), r.end.z()), ray));
+    std::vector<VoxelKey> cells;
+    for (const auto& k : ray) cells.push_back(VoxelKey{{k[0], k[1], k[2]}});
+    // Walked from the end: marked until the first cell in the region.
+    for (auto it = cells.rbegin(); it != cells.rend() && !inBall(*it); ++it) expected.insert(it->packed());
+  }
+  for (int dx = -12; dx <= 12; ++dx)
+    for (int dy = -12; dy <= 12; ++dy)
+      for (int dz = -12; dz <= 12; ++dz) {
+        const VoxelKey k{{static_cast<geometry::KeyCoord>(ok[0] + dx),
+                          static_cast<geometry::KeyCoord>(ok[1] + dy),
+                          static_cast<geometry::KeyCoord>(ok[2] + dz)}};
+        if (!inBall(k)) continue;
+        map::EvidenceBlock* b = ev.block(k);
+        ASSERT_NE(b, nullptr);
+        b->region.set(map::voxelIndexInBlock(k));
+      }
+  ev.noteRegionsUsed();
+  TraceOptions opt;
+  opt.backward = true;
+  opt.region = true;
+  traceRays(grid, ev, o, rays, opt);
+  const std::set<std::uint64_t> got = markedFree(ev);
+  EXPECT_EQ(got, expected);
+  EXPECT_LT(got.size(), octomapCells(tree, o, rays).size()) << "the region should have cut the walks";
+}
+
+}  // namespace
+}  // namespace densemap::update
