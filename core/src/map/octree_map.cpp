@@ -45,8 +45,8 @@ using Entry = OctreeMap::Entry;
 /// counter is added to the real tree at the end), so no OctoMap state is shared between threads.
 class BatchTreeUpdater {
  public:
-  static constexpr unsigned kSplitDepth =
-      12;  // subtrees of 16^3 voxels: enough tasks per scan to balance two or more threads
+  // Subtrees of 16^3 voxels: enough tasks per scan to balance two or more threads.
+  static constexpr unsigned kSplitDepth = 12;
 
   /// `factories`: empty OcTrees reused across scans as per-thread node factories (an OcTree allocates a
   /// large ray buffer when constructed, so they are kept by the map).

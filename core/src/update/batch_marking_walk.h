@@ -68,27 +68,15 @@ class BatchMarkingWalk {
   template <int kSx, int kSy, int kSz, StopAt kStop, class Fallback>
   std::uint64_t backward(const geometry::RaySetup& r, Fallback&& fallback) {
     if (r.origin_key == r.end_key) return 0;
-    const double length = r.length;
-    const double tol = 1e-9 * (length + 1.0);
+    const double tol = geometry::tieTolerance(r);
     constexpr double kNone = -std::numeric_limits<double>::infinity();
-    int kk[3];
-    double last[3];
-    for (int i = 0; i < 3; ++i) {
-      const int diff = static_cast<int>(r.end_key[i]) - static_cast<int>(r.origin_key[i]);
-      if (r.step[i] == 0) {
-        if (diff != 0) return fallback(r.end_key), 0;
-        kk[i] = 0;
-        last[i] = kNone;
-        continue;
-      }
-      kk[i] = diff * r.step[i];
-      if (kk[i] < 0) return fallback(r.end_key), 0;
-      // OctoMap reaches the endpoint cell only if exactly kk[i] crossings per axis lie before the ray's end.
-      const double next = r.t_max0[i] + static_cast<double>(kk[i]) * r.t_delta[i];
-      if (!(next > length + tol)) return fallback(r.end_key), 0;
-      last[i] = kk[i] > 0 ? r.t_max0[i] + static_cast<double>(kk[i] - 1) * r.t_delta[i] : kNone;
-      if (kk[i] > 0 && !(last[i] < length - tol)) return fallback(r.end_key), 0;
+    geometry::BackwardStart bs;
+    if (!geometry::backwardStart(r, r.end_key, true, bs)) {
+      fallback(r.end_key);
+      return 0;
     }
+    const int* kk = bs.crossings;
+    const double* last = bs.last;
     int nx = kk[0], ny = kk[1], nz = kk[2];
     int kx = r.end_key[0], ky = r.end_key[1], kz = r.end_key[2];
     double lx = last[0], ly = last[1], lz = last[2];
@@ -100,15 +88,24 @@ class BatchMarkingWalk {
       // The cell was entered through the axis whose last crossing came latest; a near tie means OctoMap's
       // accumulated rounding decides, so the rest is walked forward with its own arithmetic.
       if (lx >= ly && lx >= lz) {
-        if (lx - std::max(ly, lz) < tol) return fallback(key(kx, ky, kz)), visits;
+        if (lx - std::max(ly, lz) < tol) {
+          fallback(key(kx, ky, kz));
+          return visits;
+        }
         step<-kSx, kMortonX>(kx, m, kx, ky, kz);
         lx = --nx > 0 ? lx - dx : kNone;
       } else if (ly >= lz) {
-        if (ly - std::max(lx, lz) < tol) return fallback(key(kx, ky, kz)), visits;
+        if (ly - std::max(lx, lz) < tol) {
+          fallback(key(kx, ky, kz));
+          return visits;
+        }
         step<-kSy, kMortonY>(ky, m, kx, ky, kz);
         ly = --ny > 0 ? ly - dy : kNone;
       } else {
-        if (lz - std::max(lx, ly) < tol) return fallback(key(kx, ky, kz)), visits;
+        if (lz - std::max(lx, ly) < tol) {
+          fallback(key(kx, ky, kz));
+          return visits;
+        }
         step<-kSz, kMortonZ>(kz, m, kx, ky, kz);
         lz = --nz > 0 ? lz - dz : kNone;
       }

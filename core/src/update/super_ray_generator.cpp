@@ -17,20 +17,8 @@ namespace {
 /// True when OctoMap's walk of this ray ends exactly at its endpoint cell with margin, i.e. rounding cannot
 /// make it stop a cell early or late. Members of a super ray must satisfy it, as its end is shared.
 bool endIsRobust(const geometry::RaySetup& r) {
-  const double length = r.length;
-  const double tol = 1e-9 * (length + 1.0);
-  for (int i = 0; i < 3; ++i) {
-    const int diff = static_cast<int>(r.end_key[i]) - static_cast<int>(r.origin_key[i]);
-    if (r.step[i] == 0) {
-      if (diff != 0) return false;
-      continue;
-    }
-    const int k = diff * r.step[i];
-    if (k < 0) return false;
-    if (!(r.t_max0[i] + k * r.t_delta[i] > length + tol)) return false;
-    if (k > 0 && !(r.t_max0[i] + (k - 1) * r.t_delta[i] < length - tol)) return false;
-  }
-  return true;
+  geometry::BackwardStart unused;
+  return geometry::backwardStart(r, r.end_key, true, unused);
 }
 
 struct Classified {
@@ -60,7 +48,8 @@ void SuperRayGenerator::radixSortByCode(std::vector<CodedIndex>& a, std::vector<
 
 void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f& origin,
                                  const std::vector<Vec3f>& ends, std::vector<SuperRay>& out,
-                                 SuperRayStats* stats, std::vector<std::uint32_t>* assignment) {
+                                 SuperRayStats* stats, std::vector<std::uint32_t>* assignment,
+                                 const std::vector<VoxelKey>* end_keys) {
   out.clear();
   VoxelKey ok;
   if (!conv.toKey(origin, ok)) return;
@@ -74,7 +63,11 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
 #pragma omp parallel for schedule(static) reduction(min : lo[:3]) reduction(max : hi[:3])
   for (std::size_t i = 0; i < n; ++i) {
     VoxelKey k;
-    conv.toKey(ends[i], k);
+    if (end_keys != nullptr) {
+      k = (*end_keys)[i];
+    } else {
+      conv.toKey(ends[i], k);
+    }
     order_[i] = {k.packed(), static_cast<std::uint32_t>(i)};
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min<int>(lo[a], k[a]);

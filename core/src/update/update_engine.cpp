@@ -125,7 +125,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   if (use_super) {
     SuperRayStats sst;
     generator_.setOptions(options_.super_rays);
-    generator_.generate(conv, origin, ends, rays, &sst);
+    generator_.generate(conv, origin, ends, rays, &sst, nullptr, &end_keys_);
     st.super_rays = sst.super_rays;
     st.grouped_points = sst.grouped_points;
     for (const Vec3f& e : cut_ends) rays.push_back({e, 1});

@@ -114,6 +114,45 @@ void walkForward(const RaySetup& r, Visit&& visit) {
       r, r.end_key, [](const VoxelKey&) { return false; }, visit);
 }
 
+/// Where a backward walk starts: per axis, the number of grid crossings between the sensor's cell and the
+/// start cell, and the ray parameter of the last of them (-infinity when there is none).
+struct BackwardStart {
+  int crossings[3] = {0, 0, 0};
+  double last[3] = {0, 0, 0};
+};
+
+/// Crossing parameters closer than this are a tie that OctoMap's accumulated rounding decides.
+inline double tieTolerance(const RaySetup& r) { return 1e-9 * (static_cast<double>(r.length) + 1.0); }
+
+/// Fills `s` for a backward walk from `start`. False when the cells cannot be recomputed backward exactly
+/// from there: `start` is not ahead of the sensor's cell along the ray, or (`start_is_end`) a crossing lies
+/// so close to the ray's end that rounding could make OctoMap's walk stop a cell early or late.
+inline bool backwardStart(const RaySetup& r, const VoxelKey& start, bool start_is_end, BackwardStart& s) {
+  const double length = r.length;
+  const double tol = tieTolerance(r);
+  for (int i = 0; i < 3; ++i) {
+    const int diff = static_cast<int>(start[i]) - static_cast<int>(r.origin_key[i]);
+    if (r.step[i] == 0) {
+      if (diff != 0) return false;
+      s.crossings[i] = 0;
+      s.last[i] = -std::numeric_limits<double>::infinity();
+      continue;
+    }
+    const int k = diff * r.step[i];
+    if (k < 0) return false;
+    if (start_is_end) {
+      // OctoMap reaches the endpoint cell only if exactly k crossings per axis lie before the ray's end.
+      const double next = r.t_max0[i] + static_cast<double>(k) * r.t_delta[i];
+      if (!(next > length + tol)) return false;
+    }
+    s.crossings[i] = k;
+    s.last[i] = k > 0 ? r.t_max0[i] + static_cast<double>(k - 1) * r.t_delta[i]
+                      : -std::numeric_limits<double>::infinity();
+    if (start_is_end && k > 0 && !(s.last[i] < length - tol)) return false;
+  }
+  return true;
+}
+
 /// How a backward walk ended.
 enum class WalkEnd {
   kOrigin,    ///< reached the sensor's cell (visited it)
@@ -138,33 +177,16 @@ template <class InRegion, class Stop, class Visit>
 WalkResult walkBackwardFrom(const RaySetup& r, const VoxelKey& start, bool start_is_end, InRegion&& in_region,
                             Stop&& stop, Visit&& visit) {
   if (start == r.origin_key) return {WalkEnd::kOrigin, start};
-  const double length = r.length;
-  const double tol = 1e-9 * (length + 1.0);
+  const double tol = tieTolerance(r);
   auto fallback = [&](const VoxelKey& stop_key) {
     walkForward(r, stop_key, in_region, visit);
     return WalkResult{WalkEnd::kFallback, stop_key};
   };
-  int kk[3];
-  double last[3];
   constexpr double kNone = -std::numeric_limits<double>::infinity();
-  for (int i = 0; i < 3; ++i) {
-    const int diff = static_cast<int>(start[i]) - static_cast<int>(r.origin_key[i]);
-    if (r.step[i] == 0) {
-      if (diff != 0) return fallback(start);
-      kk[i] = 0;
-      last[i] = kNone;
-      continue;
-    }
-    kk[i] = diff * r.step[i];
-    if (kk[i] < 0) return fallback(start);
-    if (start_is_end) {
-      // OctoMap reaches the endpoint cell only if exactly kk[i] crossings per axis lie before the ray's end.
-      const double next = r.t_max0[i] + static_cast<double>(kk[i]) * r.t_delta[i];
-      if (!(next > length + tol)) return fallback(start);
-    }
-    last[i] = kk[i] > 0 ? r.t_max0[i] + static_cast<double>(kk[i] - 1) * r.t_delta[i] : kNone;
-    if (start_is_end && kk[i] > 0 && !(last[i] < length - tol)) return fallback(start);
-  }
+  BackwardStart bs;
+  if (!backwardStart(r, start, start_is_end, bs)) return fallback(start);
+  const int* kk = bs.crossings;
+  const double* last = bs.last;
   // Scalar state only: indexing arrays by the stepped axis stalls on store forwarding.
   int kx = kk[0], ky = kk[1], kz = kk[2];
   int cx = start[0], cy = start[1], cz = start[2];

@@ -41,9 +41,11 @@ class SuperRayGenerator {
   /// (cleared first). Rays whose ends share a cell and a mapping-plane region become one super ray. The
   /// generator keeps its buffers between calls, so steady state allocates nothing.
   /// If `assignment` is given, it receives for every end the index in `out` of the super ray standing for it.
+  /// `end_keys`, when given, are the ends' cells (conv.toKey of each end), which the caller already has.
   void generate(const geometry::KeyConverter& conv, const Vec3f& origin, const std::vector<Vec3f>& ends,
                 std::vector<SuperRay>& out, SuperRayStats* stats = nullptr,
-                std::vector<std::uint32_t>* assignment = nullptr);
+                std::vector<std::uint32_t>* assignment = nullptr,
+                const std::vector<geometry::VoxelKey>* end_keys = nullptr);
   /// Convenience form returning a new vector.
   std::vector<SuperRay> generate(const geometry::KeyConverter& conv, const Vec3f& origin,
                                  const std::vector<Vec3f>& ends, SuperRayStats* stats = nullptr) {
