@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Query round-trip tail under a streaming robot (issue 3's diagnosis): one densemap-server on DDS loopback,
+# optionally one robot replaying SOURCE at 10 Hz, and one query client at 100 Hz for 16 s (1,600 queries).
+#   tools/query_tail.sh [--help]
+# Environment (all optional):
+#   SOURCE=PATH|sim:...  what the robot replays (default ../shared/data/kitti00); ROBOT=0 runs no robot
+#   LOOPS=N              replay loops (default 3: 180 kitti00 scans, 18 s)
+#   POINTS=N             points per query (default 1000)
+#   SERVER_ARGS="..."    extra densemap-server flags, e.g. "--update-threads 1"
+#   DENSEMAP_DOMAIN=N    DDS domain id (default 91)
+set -euo pipefail
+if [[ "${1:-}" == "--help" || "${1:-}" == "-h" ]]; then
+  sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
+  exit 0
+fi
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bin="$root/build"
+out="$root/out/bench"
+mkdir -p "$out"
+dds=(--domain "${DENSEMAP_DOMAIN:-91}" --loopback)
+# shellcheck disable=SC2086
+"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 ${SERVER_ARGS:-} > "$out/query_tail_server.log" 2>&1 &
+server=$!
+trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
+sleep 2
+robot=""
+if [[ "${ROBOT:-1}" != 0 ]]; then
+  "$bin/client/densemap-replay" "${dds[@]}" --source "${SOURCE:-$root/../shared/data/kitti00}" --rate 10 \
+    --loops "${LOOPS:-3}" --robot-prefix tail --log-level warn > "$out/query_tail_robot.log" 2>&1 &
+  robot=$!
+fi
+sleep 1
+"$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration 16 --query-clients 1 --query-rate 100 \
+  --query-points "${POINTS:-1000}" --log-level warn 2>&1 | grep "round trip"
+if [[ -n "$robot" ]]; then
+  wait "$robot"
+  tail -n 1 "$out/query_tail_robot.log"
+fi
