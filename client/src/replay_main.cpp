@@ -18,6 +18,7 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
+#include "densemap/util/scheduler_slice.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -99,6 +100,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--query-radius", query_radius, "query points are drawn within this many metres of robot 0")
       ->capture_default_str();
+  int latency_slice_us = 100;
+  app.add_option("--latency-slice-us", latency_slice_us,
+                 "with query clients: scheduler slice of this process's threads in microseconds (Linux >= "
+                 "6.12 wakes short-slice threads sooner; 0: the kernel's default)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--summary-json", summary_json, "write a JSON summary (counts, latencies) to this file");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -136,6 +143,8 @@ int main(int argc, char** argv) {
     }
 
     dds.name = "densemap-replay";
+    // Before the DDS participant: its receive threads and the query clients inherit the slice.
+    if (query_clients > 0) util::requestSchedulerSlice(std::chrono::microseconds(latency_slice_us));
     msg::DdsNode node(dds);
     client::ScanPublisher publisher(node);
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));

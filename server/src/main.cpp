@@ -94,9 +94,19 @@ int main(int argc, char** argv) {
   app.add_option("--update-threads", o.update_threads, "threads of the map update (0 = all cores)")
       ->capture_default_str();
   app.add_option("--update-nice", o.update_nice,
-                 "nice value of the update threads (0-19); above 0 queries get a core sooner")
+                 "nice value of the map update while scans are on time (0-19; -1: 19 if the server may "
+                 "raise it back when a scan is late, else 0); above 0 queries get a core sooner")
       ->capture_default_str()
-      ->check(CLI::Range(0, 19));
+      ->check(CLI::Range(-1, 19));
+  app.add_option("--update-catch-up-ms", o.update_catch_up_ms,
+                 "a scan is late this long after it arrived: its update then runs at normal priority")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--latency-slice-us", o.latency_slice_us,
+                 "scheduler slice of the DDS and query threads in microseconds (Linux >= 6.12; 0: the "
+                 "kernel's default)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--statistics-period", o.statistics_period_s, "seconds between statistics messages (0: off)")
       ->capture_default_str();
   app.add_option("--save-on-exit", o.save_on_exit, "save the map here (.bt/.ot) when shutting down");

@@ -19,6 +19,8 @@
 #include "densemap/map/octree_map.h"
 #include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/server/occupancy_stage.h"
+#include "densemap/server/update_priority.h"
+#include "densemap/util/scheduler_slice.h"
 
 namespace densemap::server {
 
@@ -111,15 +113,45 @@ ScanJob toJob(msg::Scan& m, std::string& why) {
   return job;
 }
 
+/// Resolves update_nice (-1: auto) against what this process may do, and says what it chose.
+UpdatePriorityOptions updatePriority(const ServerOptions& o) {
+  if (o.update_nice < -1 || o.update_nice > 19)
+    throw std::invalid_argument("update_nice must be -1 (auto) or 0..19, not " +
+                                std::to_string(o.update_nice));
+  if (o.update_catch_up_ms < 0) throw std::invalid_argument("update_catch_up_ms must be >= 0");
+  UpdatePriorityOptions p;
+  p.catch_up = std::chrono::milliseconds(o.update_catch_up_ms);
+  const bool can_raise = UpdatePriority::canRaisePriority();
+  p.low_nice = o.update_nice >= 0 ? o.update_nice : can_raise ? 19 : 0;
+  if (p.low_nice > 0 && can_raise) {
+    spdlog::info("map update at nice {} while scans are on time, normal priority once one is {} ms late",
+                 p.low_nice, o.update_catch_up_ms);
+  } else if (p.low_nice > 0) {
+    spdlog::warn(
+        "map update at nice {}; this process may not raise it back when scans are late (no "
+        "CAP_SYS_NICE, RLIMIT_NICE < 20), so a heavy query load can delay the map",
+        p.low_nice);
+  } else if (o.update_nice < 0) {
+    spdlog::info(
+        "map update at normal priority: to let queries go first, allow raising priorities back "
+        "(`ulimit -e 20`, CAP_SYS_NICE or root)");
+  }
+  return p;
+}
+
 }  // namespace
 
 MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   started_ = std::chrono::steady_clock::now();
+  // Threads created from here on (DDS's receive threads, the query threads) inherit the short slice; the
+  // pipeline's stages and the scan intake set the default back for themselves.
+  if (options_.latency_slice_us < 0) throw std::invalid_argument("latency_slice_us must be >= 0");
+  util::requestSchedulerSlice(std::chrono::microseconds(options_.latency_slice_us));
   store_ = std::make_unique<MapStore>(makeMap(options_.map));
   std::vector<std::unique_ptr<PipelineStage>> stages;
   if (options_.densify.method != "none")
     stages.push_back(std::make_unique<DensifyStage>(options_.densify, makeUpsampler(options_.densify)));
-  stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, options_.update_nice));
+  stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, updatePriority(options_)));
   if (options_.dense.method != "none") {
     dense_store_ = std::make_unique<DenseStore>(makeDenseLayer(options_.dense, options_.map.resolution));
     stages.push_back(std::make_unique<DenseStage>(*dense_store_));
@@ -169,9 +201,8 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
 MappingServer::~MappingServer() { stop(); }
 
 void MappingServer::ingestLoop() {
-  // Taking and converting scans is bulk work, like the update: same priority (see update_nice).
-  if (options_.update_nice > 0)
-    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), options_.update_nice);
+  // Taking and converting scans is bulk work: the kernel's default slice (the short one is for queries).
+  util::requestSchedulerSlice(std::chrono::microseconds(0));
   msg::Scan m;
   dds::SampleInfo info;
   while (running_) {
@@ -292,6 +323,21 @@ msg::ServerStatistics MappingServer::statistics() const {
     st.latency_max_ms(q.max_ms);
     s.stages().push_back(std::move(st));
   }
+  {
+    // The map lock: how long a scan's publish (or a clear/reset) holds readers out, and how long
+    // reads waited for it. These split the queries' time in the server into waiting and answering.
+    auto addLockStage = [&](const char* name, const LatencySummary& l) {
+      msg::StageStatistics st;
+      st.name(name);
+      st.processed(l.count);
+      st.latency_p50_ms(l.p50_ms);
+      st.latency_p99_ms(l.p99_ms);
+      st.latency_max_ms(l.max_ms);
+      s.stages().push_back(std::move(st));
+    };
+    addLockStage("map-publish", store_->exclusiveHold());
+    addLockStage("map-read-wait", store_->readWait());
+  }
   // Cheap map figures only (the periodic message must not hold the map for a full iteration).
   store_->read([&](const map::OccupancyMap& m, std::uint64_t version) {
     s.map_stats().backend(m.backendName());
@@ -335,7 +381,7 @@ void MappingServer::statisticsLoop() {
       std::string stages;
       for (const auto& st : s.stages()) {
         stages +=
-            fmt::format("; {} p50 {:.1f} p99 {:.1f} ms", st.name(), st.latency_p50_ms(), st.latency_p99_ms());
+            fmt::format("; {} p50 {:.2f} p99 {:.2f} ms", st.name(), st.latency_p50_ms(), st.latency_p99_ms());
         if (st.dropped() > 0) stages += fmt::format(" ({} scans skipped: behind)", st.dropped());
       }
       spdlog::info(

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -15,6 +16,7 @@
 #include <shared_mutex>
 
 #include "densemap/map/occupancy_map.h"
+#include "densemap/server/latency_window.h"
 
 namespace densemap::server {
 
@@ -48,16 +50,25 @@ class MapStore {
   /// Runs f with the exclusive lock and increments the version (the writer thread).
   void write(const std::function<void(map::OccupancyMap&)>& f) {
     std::unique_lock lock(mutex_);
+    const auto t0 = std::chrono::steady_clock::now();
     f(*map_);
     version_.fetch_add(1, std::memory_order_release);
+    held_.add(msSince(t0));
   }
 
   /// Runs f on a consistent map with its version (any thread).
   template <class F>
   auto read(F&& f) const {
+    const auto t0 = std::chrono::steady_clock::now();
     std::shared_lock lock(mutex_);
+    waited_.add(msSince(t0));
     return f(static_cast<const map::OccupancyMap&>(*map_), version_.load(std::memory_order_acquire));
   }
+
+  /// How long writes held the exclusive lock (what a query can wait for), in ms.
+  LatencySummary exclusiveHold() const { return held_.summary(); }
+  /// How long reads waited for the lock, in ms.
+  LatencySummary readWait() const { return waited_.summary(); }
 
   std::uint64_t version() const { return version_.load(std::memory_order_acquire); }
 
@@ -74,7 +85,13 @@ class MapStore {
   }
 
  private:
+  static double msSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+
   std::unique_ptr<map::OccupancyMap> map_;
+  LatencyWindow held_;
+  mutable LatencyWindow waited_;
   mutable WriterPreferringMutex mutex_;
   std::atomic<std::uint64_t> version_{0};
   std::atomic<bool> writer_gone_{false};

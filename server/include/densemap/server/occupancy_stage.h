@@ -4,16 +4,17 @@
 
 #include "densemap/server/map_store.h"
 #include "densemap/server/pipeline_stage.h"
+#include "densemap/server/update_priority.h"
 #include "densemap/update/update_engine.h"
 
 namespace densemap::server {
 
 class OccupancyStage : public PipelineStage {
  public:
-  /// `nice` > 0 lowers the priority of the update threads (Linux nice value), so query and DDS threads
-  /// that wake up take a core at once instead of waiting for a time slice.
-  OccupancyStage(MapStore& store, update::UpdateOptions options, int nice = 0)
-      : store_(store), engine_(options), nice_(nice) {}
+  /// `priority.low_nice` > 0 runs the update at that nice value while scans are on time, so query and
+  /// DDS threads that wake up take a core at once instead of waiting for the update's time slice.
+  OccupancyStage(MapStore& store, update::UpdateOptions options, UpdatePriorityOptions priority = {0, {}})
+      : store_(store), engine_(options), priority_(priority) {}
 
   std::string name() const override { return "occupancy"; }
   StageResult process(ScanJob& job) override;
@@ -23,8 +24,7 @@ class OccupancyStage : public PipelineStage {
  private:
   MapStore& store_;
   update::UpdateEngine engine_;
-  int nice_ = 0;
-  bool niced_ = false;
+  UpdatePriority priority_;
 };
 
 }  // namespace densemap::server

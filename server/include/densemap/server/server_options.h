@@ -50,9 +50,17 @@ struct ServerOptions {
   int query_threads = 2;
   /// Threads of the map update (OpenMP); 0 = all cores.
   int update_threads = 0;
-  /// Nice value of the update threads (0..19): above 0, query and DDS threads get a core as soon as they
-  /// wake, at a small cost in update time when the machine is saturated.
-  int update_nice = 0;
+  /// Nice value of the map update's threads while scans are on time (0..19; -1 = auto: 19 if this
+  /// process may raise the priority back, else 0). Above 0, query and DDS threads take a core as soon as
+  /// they wake instead of waiting for the update's time slice. A scan that is late (see update_catch_up_ms)
+  /// is updated at normal priority, so a query load cannot starve the map; that needs the right to raise a
+  /// priority back (root, CAP_SYS_NICE or RLIMIT_NICE >= 20), without which a value > 0 stays in force.
+  int update_nice = -1;
+  /// A scan is late this many milliseconds after the server took it from DDS.
+  int update_catch_up_ms = 100;
+  /// Scheduler time slice in microseconds asked for the DDS, query and other latency-bound threads (Linux
+  /// >= 6.12 honours it; 0 = the kernel's default). The pipeline's stages keep the default.
+  int latency_slice_us = 100;
   /// Seconds between statistics messages (and log lines); 0 disables them.
   double statistics_period_s = 1.0;
   /// On shutdown: process every queued scan (true) or drop them, counted (false).

@@ -1,0 +1,59 @@
+// The map update's CPU priority: low while scans are on time, so query and DDS threads take a core as
+// soon as they wake; normal as soon as a scan is late, so a query load can never starve the map.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace densemap::server {
+
+struct UpdatePriorityOptions {
+  /// Nice value of the update's threads while scans are on time (0..19; 0 = always normal priority).
+  int low_nice = 19;
+  /// A scan is late this long after the server took it from DDS: from then on its update runs at normal
+  /// priority (the threads are re-niced mid-scan if need be).
+  std::chrono::milliseconds catch_up{100};
+};
+
+class UpdatePriority {
+ public:
+  /// True if this process may raise a thread's priority back to nice 0 (root, CAP_SYS_NICE or
+  /// RLIMIT_NICE >= 20, e.g. `ulimit -e 20`). Without it a lowered priority could never be undone.
+  static bool canRaisePriority();
+
+  explicit UpdatePriority(UpdatePriorityOptions options);
+  ~UpdatePriority();
+  UpdatePriority(const UpdatePriority&) = delete;
+  UpdatePriority& operator=(const UpdatePriority&) = delete;
+
+  /// Runs `update` on the calling thread and its OpenMP team: at the low priority until `late_at`, at
+  /// normal priority from then on.
+  void run(std::chrono::steady_clock::time_point late_at, const std::function<void()>& update);
+
+  std::chrono::milliseconds catchUp() const { return options_.catch_up; }
+
+  /// Scans whose update was raised to normal priority (they were late).
+  std::uint64_t promotions() const;
+
+ private:
+  void setNice(int nice);  // under mutex_
+  void watch();
+
+  UpdatePriorityOptions options_;
+  std::vector<int> team_;  // thread ids of the caller and its OpenMP workers
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  int nice_ = 0;
+  bool running_ = false;
+  bool stopping_ = false;
+  std::chrono::steady_clock::time_point late_at_{};
+  std::uint64_t promotions_ = 0;
+  std::thread watcher_;
+};
+
+}  // namespace densemap::server

@@ -1,0 +1,100 @@
+#include "densemap/server/update_priority.h"
+
+#include <omp.h>
+#include <pthread.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+
+#include <spdlog/spdlog.h>
+
+namespace densemap::server {
+
+namespace {
+int threadId() { return static_cast<int>(syscall(SYS_gettid)); }
+bool setThreadNice(int tid, int nice) { return setpriority(PRIO_PROCESS, static_cast<id_t>(tid), nice) == 0; }
+}  // namespace
+
+bool UpdatePriority::canRaisePriority() {
+  // Try it on a throw-away thread: lower it by one, then raise it back.
+  bool ok = false;
+  std::thread probe([&] { ok = setThreadNice(threadId(), 1) && setThreadNice(threadId(), 0); });
+  probe.join();
+  return ok;
+}
+
+UpdatePriority::UpdatePriority(UpdatePriorityOptions options) : options_(options) {
+  if (options_.low_nice > 0) watcher_ = std::thread([this] { watch(); });
+}
+
+UpdatePriority::~UpdatePriority() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  if (watcher_.joinable()) watcher_.join();
+}
+
+void UpdatePriority::setNice(int nice) {
+  if (nice == nice_) return;
+  for (int tid : team_) setThreadNice(tid, nice);
+  nice_ = nice;
+}
+
+void UpdatePriority::run(std::chrono::steady_clock::time_point late_at, const std::function<void()>& update) {
+  if (options_.low_nice <= 0) {
+    update();
+    return;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (team_.empty()) {
+      // libgomp keeps one persistent team per thread that starts parallel regions: these threads do the
+      // update's work from now on (they inherit their nice value only at creation, so set it on each).
+      std::vector<int> ids(static_cast<std::size_t>(omp_get_max_threads()), 0);
+#pragma omp parallel
+      ids[static_cast<std::size_t>(omp_get_thread_num())] = threadId();
+      ids.erase(std::remove(ids.begin(), ids.end(), 0), ids.end());
+      team_ = std::move(ids);
+      nice_ = 0;
+    }
+    setNice(std::chrono::steady_clock::now() < late_at ? options_.low_nice : 0);
+    if (nice_ == 0 && options_.low_nice > 0) ++promotions_;
+    running_ = true;
+    late_at_ = late_at;
+  }
+  changed_.notify_all();
+  update();
+  {
+    std::lock_guard lock(mutex_);
+    running_ = false;
+  }
+}
+
+void UpdatePriority::watch() {
+  pthread_setname_np(pthread_self(), "dm-update-prio");
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    if (!running_ || nice_ == 0) {
+      changed_.wait(lock);
+      continue;
+    }
+    // A scan is being updated at the low priority: raise it when it becomes late.
+    if (changed_.wait_until(lock, late_at_) == std::cv_status::timeout && running_ && nice_ != 0 &&
+        std::chrono::steady_clock::now() >= late_at_) {
+      setNice(0);
+      ++promotions_;
+      spdlog::debug("map update raised to normal priority: the scan is late");
+    }
+  }
+}
+
+std::uint64_t UpdatePriority::promotions() const {
+  std::lock_guard lock(mutex_);
+  return promotions_;
+}
+
+}  // namespace densemap::server
