@@ -61,6 +61,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
       ->capture_default_str();
+  app.add_option("--dense-nice", o.dense.nice,
+                 "nice value of the dense layer's threads (0-19); it drops scans rather than fall behind")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 19));
   std::vector<std::string> densify_robots;
   app.add_option("--densify", o.densify.method,
                  "densify stage before the map (Ch. 4): none, iln (trained network) or bilinear")

@@ -154,7 +154,9 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   stages.push_back(std::make_unique<OccupancyStage>(*store_, options_.update, updatePriority(options_)));
   if (options_.dense.method != "none") {
     dense_store_ = std::make_unique<DenseStore>(makeDenseLayer(options_.dense, options_.map.resolution));
-    stages.push_back(std::make_unique<DenseStage>(*dense_store_));
+    if (options_.dense.nice < 0 || options_.dense.nice > 19)
+      throw std::invalid_argument("the dense layer's nice value must be 0..19");
+    stages.push_back(std::make_unique<DenseStage>(*dense_store_, options_.dense.nice));
   }
   query_service_ = std::make_unique<QueryService>(*store_, options_.queries, dense_store_.get());
   pipeline_ = std::make_unique<Pipeline>(

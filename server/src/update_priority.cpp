@@ -17,6 +17,20 @@ int threadId() { return static_cast<int>(syscall(SYS_gettid)); }
 bool setThreadNice(int tid, int nice) { return setpriority(PRIO_PROCESS, static_cast<id_t>(tid), nice) == 0; }
 }  // namespace
 
+std::vector<int> openmpTeamThreadIds() {
+  std::vector<int> ids(static_cast<std::size_t>(omp_get_max_threads()), 0);
+#pragma omp parallel
+  ids[static_cast<std::size_t>(omp_get_thread_num())] = threadId();
+  ids.erase(std::remove(ids.begin(), ids.end(), 0), ids.end());
+  return ids;
+}
+
+bool setThreadsNice(const std::vector<int>& thread_ids, int nice) {
+  bool ok = true;
+  for (int tid : thread_ids) ok = setThreadNice(tid, nice) && ok;
+  return ok;
+}
+
 bool UpdatePriority::canRaisePriority() {
   // Try it on a throw-away thread: lower it by one, then raise it back.
   bool ok = false;
@@ -40,7 +54,7 @@ UpdatePriority::~UpdatePriority() {
 
 void UpdatePriority::setNice(int nice) {
   if (nice == nice_) return;
-  for (int tid : team_) setThreadNice(tid, nice);
+  setThreadsNice(team_, nice);
   nice_ = nice;
 }
 
@@ -52,13 +66,7 @@ void UpdatePriority::run(std::chrono::steady_clock::time_point late_at, const st
   {
     std::lock_guard lock(mutex_);
     if (team_.empty()) {
-      // libgomp keeps one persistent team per thread that starts parallel regions: these threads do the
-      // update's work from now on (they inherit their nice value only at creation, so set it on each).
-      std::vector<int> ids(static_cast<std::size_t>(omp_get_max_threads()), 0);
-#pragma omp parallel
-      ids[static_cast<std::size_t>(omp_get_thread_num())] = threadId();
-      ids.erase(std::remove(ids.begin(), ids.end(), 0), ids.end());
-      team_ = std::move(ids);
+      team_ = openmpTeamThreadIds();
       nice_ = 0;
     }
     setNice(std::chrono::steady_clock::now() < late_at ? options_.low_nice : 0);

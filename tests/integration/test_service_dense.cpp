@@ -1,6 +1,12 @@
 // The dense layer in the service: a stage after the exact map; the dense layer answers from it, the fused
 // layer from the exact map where it observed a cell and from the dense layer elsewhere.
+#include <sys/resource.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -72,6 +78,33 @@ TEST(ServiceDense, DenseAndFusedLayersAnswerFromTheirMaps) {
   // occupancy, dense, then the pseudo-stages: queries, map-publish, map-read-wait
   ASSERT_EQ(stats.stages().size(), 5u);
   EXPECT_EQ(stats.stages()[1].name(), "dense");
+}
+
+/// Nice values of this process's threads named `name`.
+std::vector<int> threadNice(const std::string& name) {
+  std::vector<int> nice;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string n;
+    std::getline(comm, n);
+    if (n == name)
+      nice.push_back(getpriority(PRIO_PROCESS, static_cast<id_t>(std::stoi(task.path().filename()))));
+  }
+  return nice;
+}
+
+TEST(ServiceDense, TheDenseStageRunsAtItsNiceValue) {
+  // It drops scans rather than fall behind, so by default it yields the cores to queries and the exact map.
+  auto o = serverOptions(155);
+  o.dense.method = "bgk";
+  ServiceHarness h(o);
+  ASSERT_EQ(o.dense.nice, 19) << "the default";
+  ASSERT_TRUE(h.robot->publish("robot-0", 0, simScans(1)[0]));
+  for (int w = 0; w < 600 && h.server->denseStore()->version() < 1; ++w) std::this_thread::sleep_for(50ms);
+  ASSERT_EQ(h.server->denseStore()->version(), 1u);
+  const auto nice = threadNice("dm-dense");
+  ASSERT_FALSE(nice.empty()) << "no thread named dm-dense";
+  for (int n : nice) EXPECT_EQ(n, 19);
 }
 
 TEST(ServiceDense, WithoutADenseLayerTheDenseLayersAreUnavailable) {

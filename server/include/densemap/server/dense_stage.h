@@ -11,6 +11,7 @@
 #include "densemap/dense/kernel_layer.h"
 #include "densemap/server/map_store.h"
 #include "densemap/server/pipeline_stage.h"
+#include "densemap/server/update_priority.h"
 
 namespace densemap::server {
 
@@ -45,10 +46,13 @@ class DenseStore {
 
 class DenseStage : public PipelineStage {
  public:
-  explicit DenseStage(DenseStore& store) : store_(store) {}
+  /// `nice` > 0: the stage's thread and its OpenMP team run at that nice value (set on the first scan).
+  explicit DenseStage(DenseStore& store, int nice = 0) : store_(store), nice_(nice) {}
   std::string name() const override { return "dense"; }
   OverflowPolicy inputPolicy() const override { return OverflowPolicy::kDropOldest; }
   StageResult process(ScanJob& job) override {
+    if (!niced_ && nice_ > 0) setThreadsNice(openmpTeamThreadIds(), nice_);
+    niced_ = true;
     // The occupancy stage before this one left the points in the world frame.
     std::vector<geometry::Vec3f> converted;
     if (job.scan.frame != io::PointFrame::kWorld) converted = job.scan.worldPoints();
@@ -60,6 +64,8 @@ class DenseStage : public PipelineStage {
 
  private:
   DenseStore& store_;
+  int nice_ = 0;
+  bool niced_ = false;
 };
 
 }  // namespace densemap::server

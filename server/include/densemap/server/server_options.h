@@ -29,6 +29,9 @@ struct DenseLayerOptions {
   /// scan at 0.2 m (docs/BENCHMARKS.md).
   double free_voxel_size = 0.3;
   double max_range = 30.0;
+  /// Nice value of the stage's threads (0..19). It drops scans instead of falling behind, so it never
+  /// needs its priority back: 19 lets queries and the exact map go first (lowering needs no privilege).
+  int nice = 19;
   /// AKIMap extensions (dense/adaptive_kernel_layer.h): isotropic free kernels, occupied radius floor.
   bool isotropic_free_kernels = false;
   double min_occupied_search_radius =

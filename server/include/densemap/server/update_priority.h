@@ -20,6 +20,13 @@ struct UpdatePriorityOptions {
   std::chrono::milliseconds catch_up{100};
 };
 
+/// Thread ids of the calling thread and its OpenMP team (libgomp keeps one persistent team per thread that
+/// starts parallel regions, and its threads take their nice value only at creation, so a priority is set
+/// on each).
+std::vector<int> openmpTeamThreadIds();
+/// Sets the nice value of each thread; false if any refused.
+bool setThreadsNice(const std::vector<int>& thread_ids, int nice);
+
 class UpdatePriority {
  public:
   /// True if this process may raise a thread's priority back to nice 0 (root, CAP_SYS_NICE or
