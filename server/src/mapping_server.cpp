@@ -314,32 +314,21 @@ msg::ServerStatistics MappingServer::statistics() const {
     st.latency_max_ms(c.latency.max_ms);
     s.stages().push_back(std::move(st));
   }
-  {
-    // Queries as a pseudo-stage: how long answering takes inside the server (lock waits included).
-    const LatencySummary q = query_service_->latency();
+  // Pseudo-stages: answering queries inside the server (lock waits included), how long a scan's publish
+  // (or a clear/reset) holds readers out of the map, and how long reads waited for it.
+  auto addPseudoStage = [&](const char* name, std::uint64_t processed, const LatencySummary& l) {
     msg::StageStatistics st;
-    st.name("queries");
-    st.processed(query_service_->answered() + query_service_->failed());
-    st.latency_p50_ms(q.p50_ms);
-    st.latency_p99_ms(q.p99_ms);
-    st.latency_max_ms(q.max_ms);
+    st.name(name);
+    st.processed(processed);
+    st.latency_p50_ms(l.p50_ms);
+    st.latency_p99_ms(l.p99_ms);
+    st.latency_max_ms(l.max_ms);
     s.stages().push_back(std::move(st));
-  }
-  {
-    // The map lock: how long a scan's publish (or a clear/reset) holds readers out, and how long
-    // reads waited for it. These split the queries' time in the server into waiting and answering.
-    auto addLockStage = [&](const char* name, const LatencySummary& l) {
-      msg::StageStatistics st;
-      st.name(name);
-      st.processed(l.count);
-      st.latency_p50_ms(l.p50_ms);
-      st.latency_p99_ms(l.p99_ms);
-      st.latency_max_ms(l.max_ms);
-      s.stages().push_back(std::move(st));
-    };
-    addLockStage("map-publish", store_->exclusiveHold());
-    addLockStage("map-read-wait", store_->readWait());
-  }
+  };
+  addPseudoStage("queries", query_service_->answered() + query_service_->failed(), query_service_->latency());
+  const LatencySummary hold = store_->exclusiveHold(), wait = store_->readWait();
+  addPseudoStage("map-publish", hold.count, hold);  // count: samples in the latency window
+  addPseudoStage("map-read-wait", wait.count, wait);
   // Cheap map figures only (the periodic message must not hold the map for a full iteration).
   store_->read([&](const map::OccupancyMap& m, std::uint64_t version) {
     s.map_stats().backend(m.backendName());
