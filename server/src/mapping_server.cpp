@@ -1,8 +1,6 @@
 #include "densemap/server/mapping_server.h"
 
 #include <pthread.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <fstream>

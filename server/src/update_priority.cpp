@@ -70,7 +70,7 @@ void UpdatePriority::run(std::chrono::steady_clock::time_point late_at, const st
       nice_ = 0;
     }
     setNice(std::chrono::steady_clock::now() < late_at ? options_.low_nice : 0);
-    if (nice_ == 0 && options_.low_nice > 0) ++promotions_;
+    if (nice_ == 0) ++promotions_;  // late before it started
     running_ = true;
     late_at_ = late_at;
   }
