@@ -40,6 +40,7 @@ struct MethodResult {
   eval::ClassificationScores scores;
   double seconds = 0;
   std::size_t scans = 0;
+  std::vector<std::optional<float>> predictions;  ///< per test point (nullopt: unknown)
 };
 
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
   double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0,
          min_occupied_radius = 0.0;
   bool as_json = false, iso_free = false, equal_time = false;
-  std::string roc_png;
+  std::string roc_png, predictions_csv;
   int threads = 0, beam_step = 0;
   std::uint64_t seed = 1;
   std::string densify_method = "none", densify_weights;
@@ -83,6 +84,8 @@ int main(int argc, char** argv) {
       "--equal-time", equal_time,
       "also run slower kernel methods on less data (5% steps) until they fit the fastest one's time");
   app.add_option("--roc-png", roc_png, "plot the ROC curves to this PNG (exact blue, bgk green, akimap red)");
+  app.add_option("--predictions-csv", predictions_csv,
+                 "write every test point (x,y,z,occupied) with each method's probability (empty: unknown)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   app.add_option(
          "--keep-every-nth-beam", beam_step,
@@ -217,6 +220,7 @@ int main(int argc, char** argv) {
         throw std::invalid_argument("unknown method '" + m + "' (use exact, bgk, akimap)");
       }
       r.scores = eval::score(pred, labels);
+      r.predictions = std::move(pred);
       return r;
     };
     std::vector<MethodResult> results;
@@ -279,6 +283,25 @@ int main(int argc, char** argv) {
         for (const auto& p : s.roc) {
           csv << r.method << "," << r.usage << "," << p.threshold << "," << p.fpr << "," << p.tpr << "\n";
         }
+      }
+    }
+    if (!predictions_csv.empty()) {
+      // One row per test point, one column per method run on all the data: to see where methods differ.
+      std::ofstream out(predictions_csv);
+      if (!out) throw std::runtime_error("cannot write " + predictions_csv);
+      out << "x,y,z,occupied";
+      for (const auto& r : results)
+        if (r.usage == 1.0) out << "," << r.method;
+      out << "\n";
+      for (std::size_t i = 0; i < test_points.size(); ++i) {
+        const auto& p = test_points[i];
+        out << p.x() << "," << p.y() << "," << p.z() << "," << (labels[i] ? 1 : 0);
+        for (const auto& r : results) {
+          if (r.usage != 1.0) continue;
+          out << ",";
+          if (r.predictions[i]) out << *r.predictions[i];
+        }
+        out << "\n";
       }
     }
     if (!roc_png.empty()) {
