@@ -7,10 +7,11 @@
 #   LOOPS=N              replay loops (default 3: 180 kitti00 scans, 18 s)
 #   POINTS=N             points per query (default 1000)
 #   SERVER_ARGS="..."    extra densemap-server flags, e.g. "--update-threads 1"
+#   SERVER_BIN=PATH      another densemap-server binary (A/B runs against an older build)
 #   DENSEMAP_DOMAIN=N    DDS domain id (default 91)
 set -euo pipefail
 if [[ "${1:-}" == "--help" || "${1:-}" == "-h" ]]; then
-  sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'
   exit 0
 fi
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -19,7 +20,7 @@ out="$root/out/bench"
 mkdir -p "$out"
 dds=(--domain "${DENSEMAP_DOMAIN:-91}" --loopback)
 # shellcheck disable=SC2086
-"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 ${SERVER_ARGS:-} > "$out/query_tail_server.log" 2>&1 &
+"${SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 ${SERVER_ARGS:-} > "$out/query_tail_server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
 sleep 2
@@ -32,6 +33,8 @@ fi
 sleep 1
 "$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration 16 --query-clients 1 --query-rate 100 \
   --query-points "${POINTS:-1000}" --log-level warn 2>&1 | grep "round trip"
+# The server's own answer time (lock waits included) from its last statistics line.
+grep -o "queries p50 [0-9.]* p99 [0-9.]* ms" "$out/query_tail_server.log" | tail -n 1 | sed 's/^/server-side /' || true
 if [[ -n "$robot" ]]; then
   wait "$robot"
   tail -n 1 "$out/query_tail_robot.log"

@@ -11,9 +11,10 @@ out="$root/out/bench"
 mkdir -p "$out"
 domain="${DENSEMAP_DOMAIN:-77}"
 dds=(--domain "$domain" --loopback)
-# DENSEMAP_SERVER_ARGS adds server flags, e.g. "--update-nice 10".
+# DENSEMAP_SERVER_ARGS adds server flags, e.g. "--update-nice 10"; DENSEMAP_SERVER_BIN runs another
+# densemap-server binary (A/B runs against an older build).
 # shellcheck disable=SC2086
-"$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 ${DENSEMAP_SERVER_ARGS:-} > "$out/server.log" 2>&1 &
+"${DENSEMAP_SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 ${DENSEMAP_SERVER_ARGS:-} > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
 seconds=$(( loops * 6 ))

@@ -242,21 +242,25 @@ void QueryService::denseQuery(const msg::QueryRequest& rq, msg::QueryReply& rp) 
 void QueryService::points(const msg::QueryRequest& rq, msg::QueryReply& rp) {
   const auto& xyz = rq.points();
   const std::size_t n = pointCount(rq, limits_);
-  std::vector<float> probs(n);
-  std::vector<uint8_t> states(n);
+  std::vector<float> probs(n), log_odds(n);
+  std::vector<uint8_t> states(n), valid(n);
+  std::vector<VoxelKey> keys(n);
   store_.read([&](const map::OccupancyMap& m, std::uint64_t version) {
-    const float threshold = map::OccupancyParams::logOdds(m.params().occupied_threshold);
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3f p(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-      VoxelKey k;
-      std::optional<float> v;
-      if (p.allFinite() && m.converter().toKey(p, k)) v = m.logOdds(k);
-      if (!v) {
+      valid[i] = p.allFinite() && m.converter().toKey(p, keys[i]);
+      if (!valid[i]) keys[i] = VoxelKey{{0, 0, 0}};  // looked up like the others, answered unknown below
+    }
+    m.logOddsMany(keys, log_odds);  // one batch: the lookups' cache misses overlap
+    const float threshold = map::OccupancyParams::logOdds(m.params().occupied_threshold);
+    for (std::size_t i = 0; i < n; ++i) {
+      const float v = log_odds[i];
+      if (!valid[i] || std::isnan(v)) {
         probs[i] = 0.5f;
         states[i] = msg::CELL_UNKNOWN;
       } else {
-        probs[i] = probability(*v);
-        states[i] = *v >= threshold ? msg::CELL_OCCUPIED : msg::CELL_FREE;
+        probs[i] = probability(v);
+        states[i] = v >= threshold ? msg::CELL_OCCUPIED : msg::CELL_FREE;
       }
     }
     rp.map_version(version);

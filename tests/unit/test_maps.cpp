@@ -74,6 +74,42 @@ TEST_F(SimMaps, GridAndOctreeHoldTheSameCells) {
   EXPECT_GT(compared, 10000u);
 }
 
+TEST_F(SimMaps, BatchLookupsEqualSingleLookupsOnBothBackends) {
+  GridMap grid(0.2);
+  OctreeMap octree(0.2);
+  update::UpdateEngine engine;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const io::Scan s = sim.read(i);
+    ASSERT_TRUE(engine.insert(grid, s.worldPoints(), s.origin()));
+    ASSERT_TRUE(engine.insert(octree, s.worldPoints(), s.origin()));
+  }
+  // Random cells around the sensor (known and unknown), more than one batch chunk, in random order.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-12.0f, 12.0f), uz(-2.0f, 2.0f);
+  std::vector<geometry::VoxelKey> keys;
+  while (keys.size() < 5000) {
+    geometry::VoxelKey k;
+    if (grid.converter().toKey(Vec3f(u(rng), u(rng), uz(rng)), k)) keys.push_back(k);
+  }
+  for (const OccupancyMap* m :
+       {static_cast<const OccupancyMap*>(&grid), static_cast<const OccupancyMap*>(&octree)}) {
+    std::vector<float> out(keys.size(), 123.0f);
+    m->logOddsMany(keys, out);
+    std::size_t known = 0;
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const auto v = m->logOdds(keys[i]);
+      if (v) {
+        ++known;
+        ASSERT_EQ(out[i], *v) << m->backendName() << " key " << i;
+      } else {
+        ASSERT_TRUE(std::isnan(out[i])) << m->backendName() << " key " << i;
+      }
+    }
+    EXPECT_GT(known, 500u) << m->backendName();
+    EXPECT_LT(known, keys.size()) << m->backendName();
+  }
+}
+
 TEST_F(SimMaps, PublishedApplyEqualsInPlaceApplyAndChangesNothingBeforePublishing) {
   GridMap in_place(0.2), published(0.2);
   update::UpdateEngine a, b;

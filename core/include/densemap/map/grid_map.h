@@ -27,6 +27,7 @@ class GridMap : public OccupancyMap {
   /// Copy-on-write per block: the scan's blocks are updated in copies, then swapped in by `publish`.
   void applyPublished(const ScanEvidence& evidence, const Publisher& publish) override;
   std::optional<float> logOdds(const VoxelKey& key) const override;
+  void logOddsMany(std::span<const VoxelKey> keys, std::span<float> out) const override;
   bool isFullyFree(const VoxelKey& key) const override;
   std::size_t knownCells() const override;
   std::size_t memoryBytes() const override;

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "densemap/geometry/voxel_key.h"
@@ -37,6 +38,10 @@ class OccupancyMap {
 
   /// Log-odds of the cell, or nullopt when it was never observed.
   virtual std::optional<float> logOdds(const VoxelKey& key) const = 0;
+
+  /// logOdds() of many cells at once (query batches): out[i] is the log-odds of keys[i], NaN when the cell
+  /// was never observed. The default asks logOdds() per key; GridMap overlaps the lookups' cache misses.
+  virtual void logOddsMany(std::span<const VoxelKey> keys, std::span<float> out) const;
 
   /// True when the cell is known and clamped at the lower bound: free updates cannot change it.
   virtual bool isFullyFree(const VoxelKey& key) const = 0;
