@@ -19,17 +19,18 @@ struct AdaptiveKernelOptions {
   bool support_to_radius = true;
   /// Lower bound of the search radius (0: the dissertation's schedule, from the cell size at the sensor).
   /// On la3dm structured at 0.05 m (densemap-eval --min-search-radius 0.2), 0.2 raised the held-out
-  /// AUC from 0.917 to 0.952 at 1.5 times the time.
+  /// AUC from 0.944 to 0.961 at 1.4 times the time.
   double min_search_radius = 0.0;
   /// The same bound for occupied samples only: larger surface kernels fill gaps along surfaces while free
-  /// kernels stay local. On la3dm at 0.05 m with isotropic free kernels, 0.3 gave AUC 0.957 / MSE 0.094
-  /// (structured) and 0.966 / 0.080 (unstructured) in 0.91 / 0.65 s (docs/BENCHMARKS.md).
+  /// kernels stay local. On la3dm at 0.05 m with isotropic free kernels, 0.3 gave AUC 0.961 / MSE 0.093
+  /// (structured) and 0.969 / 0.078 (unstructured) in 0.91 / 0.68 s, above BGK's AUC and below its MSE
+  /// (docs/BENCHMARKS.md).
   double min_occupied_search_radius = 0.0;
   /// Free samples get the isotropic bandwidth (sized to the search radius, then rescaled by Eq. 3.7)
   /// instead of their neighbours' covariance. Free samples lie along rays, so their covariance is often a
   /// needle that leaves the space between rays unknown. Not in the dissertation; on la3dm structured at
-  /// 0.05 m (densemap-eval --isotropic-free-kernels) it raised the held-out AUC from 0.917 to 0.932 and the
-  /// coverage from 0.949 to 0.983.
+  /// 0.05 m (densemap-eval --isotropic-free-kernels) it raised the held-out AUC from 0.944 to 0.947 and the
+  /// coverage from 0.991 to 0.999.
   bool isotropic_free_kernels = false;
 };
 

@@ -68,7 +68,8 @@ struct KernelLayerOptions {
   float prior_alpha = 0.001f;
   float prior_beta = 0.001f;
   /// A cell whose accumulated kernel evidence (alpha + beta without the prior) is below this reads as
-  /// unknown.
+  /// unknown. In the kernels' weight units: BGK adds sf2 (1) at a sample, AKIMap |H|^-1/2 (metres^-3,
+  /// 10^1-10^4 at these scales), so for AKIMap this only marks cells its kernels barely reach.
   float unknown_evidence = 0.001f;
   std::uint64_t seed = 1;  ///< free-sample generator
 };
