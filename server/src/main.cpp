@@ -106,6 +106,11 @@ int main(int argc, char** argv) {
                  "a scan is late this long after it arrived: its update then runs at normal priority")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--update-late-nice", o.update_late_nice,
+                 "nice value of a late scan's update (-20..0): below 0 the map falls less far behind under a "
+                 "flood of queries, at their cost; needs root, CAP_SYS_NICE or RLIMIT_NICE")
+      ->capture_default_str()
+      ->check(CLI::Range(-20, 0));
   app.add_option("--latency-slice-us", o.latency_slice_us,
                  "scheduler slice of the DDS and query threads in microseconds (Linux >= 6.12; 0: the "
                  "kernel's default)")

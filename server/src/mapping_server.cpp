@@ -119,11 +119,28 @@ UpdatePriorityOptions updatePriority(const ServerOptions& o) {
   if (o.update_catch_up_ms < 0) throw std::invalid_argument("update_catch_up_ms must be >= 0");
   UpdatePriorityOptions p;
   p.catch_up = std::chrono::milliseconds(o.update_catch_up_ms);
+  if (o.update_late_nice < -20 || o.update_late_nice > 0)
+    throw std::invalid_argument("update_late_nice must be -20..0, not " + std::to_string(o.update_late_nice));
   const bool can_raise = UpdatePriority::canRaisePriority();
   p.low_nice = o.update_nice >= 0 ? o.update_nice : can_raise ? 19 : 0;
+  if (o.update_late_nice < 0) {
+    if (p.low_nice == 0) {
+      spdlog::warn(
+          "--update-late-nice {} has no effect: the update always runs at normal priority (--update-nice "
+          "0, or -1 without the right to raise priorities back)",
+          o.update_late_nice);
+    } else if (!UpdatePriority::canRaisePriority(o.update_late_nice)) {
+      spdlog::warn(
+          "late scans updated at nice 0, not {}: this process may not go below 0 (root, CAP_SYS_NICE "
+          "or `ulimit -e {}`)",
+          o.update_late_nice, 20 - o.update_late_nice);
+    } else {
+      p.late_nice = o.update_late_nice;
+    }
+  }
   if (p.low_nice > 0 && can_raise) {
-    spdlog::info("map update at nice {} while scans are on time, normal priority once one is {} ms late",
-                 p.low_nice, o.update_catch_up_ms);
+    spdlog::info("map update at nice {} while scans are on time, nice {} once one is {} ms late", p.low_nice,
+                 p.late_nice, o.update_catch_up_ms);
   } else if (p.low_nice > 0) {
     spdlog::warn(
         "map update at nice {}; this process may not raise it back when scans are late (no "

@@ -31,10 +31,10 @@ bool setThreadsNice(const std::vector<int>& thread_ids, int nice) {
   return ok;
 }
 
-bool UpdatePriority::canRaisePriority() {
-  // Try it on a throw-away thread: lower it by one, then raise it back.
+bool UpdatePriority::canRaisePriority(int to) {
+  // Try it on a throw-away thread: lower it, then raise it to `to`.
   bool ok = false;
-  std::thread probe([&] { ok = setThreadNice(threadId(), 1) && setThreadNice(threadId(), 0); });
+  std::thread probe([&] { ok = setThreadNice(threadId(), 1) && setThreadNice(threadId(), to); });
   probe.join();
   return ok;
 }
@@ -69,8 +69,8 @@ void UpdatePriority::run(std::chrono::steady_clock::time_point late_at, const st
       team_ = openmpTeamThreadIds();
       nice_ = 0;
     }
-    setNice(std::chrono::steady_clock::now() < late_at ? options_.low_nice : 0);
-    if (nice_ == 0) ++promotions_;  // late before it started
+    setNice(std::chrono::steady_clock::now() < late_at ? options_.low_nice : options_.late_nice);
+    if (nice_ == options_.late_nice) ++promotions_;  // late before it started
     running_ = true;
     late_at_ = late_at;
   }
@@ -79,6 +79,9 @@ void UpdatePriority::run(std::chrono::steady_clock::time_point late_at, const st
   {
     std::lock_guard lock(mutex_);
     running_ = false;
+    // Back to the low priority between scans: libgomp's workers spin for a while after a parallel region,
+    // and at a late scan's priority that spinning would take the cores from queries.
+    setNice(options_.low_nice);
   }
 }
 
@@ -86,16 +89,16 @@ void UpdatePriority::watch() {
   pthread_setname_np(pthread_self(), "dm-update-prio");
   std::unique_lock lock(mutex_);
   while (!stopping_) {
-    if (!running_ || nice_ == 0) {
+    if (!running_ || nice_ == options_.late_nice) {
       changed_.wait(lock);
       continue;
     }
     // A scan is being updated at the low priority: raise it when it becomes late.
-    if (changed_.wait_until(lock, late_at_) == std::cv_status::timeout && running_ && nice_ != 0 &&
-        std::chrono::steady_clock::now() >= late_at_) {
-      setNice(0);
+    if (changed_.wait_until(lock, late_at_) == std::cv_status::timeout && running_ &&
+        nice_ != options_.late_nice && std::chrono::steady_clock::now() >= late_at_) {
+      setNice(options_.late_nice);
       ++promotions_;
-      spdlog::debug("map update raised to normal priority: the scan is late");
+      spdlog::debug("map update raised to nice {}: the scan is late", options_.late_nice);
     }
   }
 }

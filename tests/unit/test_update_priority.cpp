@@ -1,5 +1,6 @@
 // UpdatePriority: the map update runs at a low priority while its scan is on time, and at normal priority
-// from the moment the scan is late, also when that moment comes in the middle of the update.
+// (or the late nice value) from the moment the scan is late, also when that moment comes in the middle of
+// the update; between scans the team is back at the low priority.
 #include <omp.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -61,6 +62,26 @@ TEST_F(UpdatePriorityTest, ALateScanRunsAtNormalPriority) {
   EXPECT_EQ(inside.first, 0);
   EXPECT_EQ(inside.second, 0);
   EXPECT_EQ(priority.promotions(), 1u);
+}
+
+TEST_F(UpdatePriorityTest, ALateScanRunsAtTheLateNiceValue) {
+  if (!UpdatePriority::canRaisePriority(-5)) GTEST_SKIP() << "this process may not go below nice 0";
+  UpdatePriority priority({19, 100ms, -5});
+  std::pair<int, int> inside{};
+  priority.run(Clock::now() - 1ms, [&] { inside = teamNice(); });
+  EXPECT_EQ(inside.first, -5);
+  EXPECT_EQ(inside.second, -5);
+  EXPECT_EQ(priority.promotions(), 1u);
+}
+
+TEST_F(UpdatePriorityTest, BetweenScansTheTeamIsBackAtTheLowPriority) {
+  // The OpenMP workers spin after a parallel region: at a late scan's priority they would compete with
+  // the queries until the next scan.
+  UpdatePriority priority({19, 100ms});
+  priority.run(Clock::now() - 1ms, [] {});
+  const auto between = teamNice();
+  EXPECT_EQ(between.first, 19);
+  EXPECT_EQ(between.second, 19);
 }
 
 TEST_F(UpdatePriorityTest, AnUpdateThatBecomesLateIsRaisedWhileItRuns) {

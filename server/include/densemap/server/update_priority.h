@@ -15,9 +15,13 @@ namespace densemap::server {
 struct UpdatePriorityOptions {
   /// Nice value of the update's threads while scans are on time (0..19; 0 = always normal priority).
   int low_nice = 19;
-  /// A scan is late this long after the server took it from DDS: from then on its update runs at normal
-  /// priority (the threads are re-niced mid-scan if need be).
+  /// A scan is late this long after the server took it from DDS: from then on its update runs at
+  /// `late_nice` (the threads are re-niced mid-scan if need be).
   std::chrono::milliseconds catch_up{100};
+  /// Nice value of a late scan's update (-20..0). 0: an equal share of the cores with the query threads.
+  /// Below 0 it takes more, which bounds how far the map falls behind under a flood of queries (and
+  /// costs those queries' latency); going below 0 needs root, CAP_SYS_NICE or RLIMIT_NICE >= 20 - value.
+  int late_nice = 0;
 };
 
 /// Thread ids of the calling thread and its OpenMP team (libgomp keeps one persistent team per thread that
@@ -29,9 +33,9 @@ bool setThreadsNice(const std::vector<int>& thread_ids, int nice);
 
 class UpdatePriority {
  public:
-  /// True if this process may raise a thread's priority back to nice 0 (root, CAP_SYS_NICE or
+  /// True if this process may raise a thread's priority back to nice `to` (0: root, CAP_SYS_NICE or
   /// RLIMIT_NICE >= 20, e.g. `ulimit -e 20`). Without it a lowered priority could never be undone.
-  static bool canRaisePriority();
+  static bool canRaisePriority(int to = 0);
 
   explicit UpdatePriority(UpdatePriorityOptions options);
   ~UpdatePriority();
@@ -39,12 +43,12 @@ class UpdatePriority {
   UpdatePriority& operator=(const UpdatePriority&) = delete;
 
   /// Runs `update` on the calling thread and its OpenMP team: at the low priority until `late_at`, at
-  /// normal priority from then on.
+  /// `late_nice` from then on; afterwards the team is back at the low priority.
   void run(std::chrono::steady_clock::time_point late_at, const std::function<void()>& update);
 
   std::chrono::milliseconds catchUp() const { return options_.catch_up; }
 
-  /// Scans whose update was raised to normal priority (they were late).
+  /// Scans whose update was raised to `late_nice` (they were late).
   std::uint64_t promotions() const;
 
  private:
