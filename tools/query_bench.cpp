@@ -17,17 +17,14 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
+#include "densemap/util/percentile.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
+using util::percentile;
 
 namespace {
 double us(Clock::time_point t) { return std::chrono::duration<double, std::micro>(Clock::now() - t).count(); }
-double percentile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0
-                   : v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-}
 }  // namespace
 
 int main(int argc, char** argv) {

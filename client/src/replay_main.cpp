@@ -18,20 +18,13 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
+#include "densemap/util/percentile.h"
 #include "densemap/util/scheduler_slice.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
 
-namespace {
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-}
-
-}  // namespace
+using util::percentile;
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-replay: publish scans from a source as robots to a densemap-server over DDS"};

@@ -52,17 +52,25 @@ TEST(Maps, CountingAppliesFreeThenHitClamped) {
 
 struct SimMaps : ::testing::Test {
   io::LidarSimulator sim{test::smallSimulator(6)};
+
+  /// Maps the first `scans` simulated scans into both maps, one engine for both; false if any insert
+  /// was refused.
+  bool mapBoth(OccupancyMap& a, OccupancyMap& b, std::size_t scans) {
+    update::UpdateEngine engine;
+    bool ok = true;
+    for (std::size_t i = 0; i < scans; ++i) {
+      const io::Scan s = sim.read(i);
+      ok = engine.insert(a, s.worldPoints(), s.origin()).has_value() && ok;
+      ok = engine.insert(b, s.worldPoints(), s.origin()).has_value() && ok;
+    }
+    return ok;
+  }
 };
 
 TEST_F(SimMaps, GridAndOctreeHoldTheSameCells) {
   GridMap grid(0.3);
   OctreeMap octree(0.3);
-  update::UpdateEngine engine;
-  for (std::size_t i = 0; i < sim.size(); ++i) {
-    const io::Scan s = sim.read(i);
-    ASSERT_TRUE(engine.insert(grid, s.worldPoints(), s.origin()));
-    ASSERT_TRUE(engine.insert(octree, s.worldPoints(), s.origin()));
-  }
+  ASSERT_TRUE(mapBoth(grid, octree, sim.size()));
   EXPECT_EQ(grid.knownCells(), octree.knownCells());
   std::size_t compared = 0;
   grid.forEachCell([&](const geometry::VoxelKey& k, float v) {
@@ -77,12 +85,7 @@ TEST_F(SimMaps, GridAndOctreeHoldTheSameCells) {
 TEST_F(SimMaps, BatchLookupsEqualSingleLookupsOnBothBackends) {
   GridMap grid(0.2);
   OctreeMap octree(0.2);
-  update::UpdateEngine engine;
-  for (std::size_t i = 0; i < 3; ++i) {
-    const io::Scan s = sim.read(i);
-    ASSERT_TRUE(engine.insert(grid, s.worldPoints(), s.origin()));
-    ASSERT_TRUE(engine.insert(octree, s.worldPoints(), s.origin()));
-  }
+  ASSERT_TRUE(mapBoth(grid, octree, 3));
   // Random cells around the sensor (known and unknown), more than one batch chunk, in random order.
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-12.0f, 12.0f), uz(-2.0f, 2.0f);
@@ -133,12 +136,7 @@ TEST_F(SimMaps, PublishedApplyEqualsInPlaceApplyAndChangesNothingBeforePublishin
 TEST_F(SimMaps, EraseBoxForgetsExactlyTheBoxOnBothBackends) {
   GridMap grid(0.3);
   OctreeMap octree(0.3);
-  update::UpdateEngine engine;
-  for (std::size_t i = 0; i < 3; ++i) {
-    const io::Scan s = sim.read(i);
-    engine.insert(grid, s.worldPoints(), s.origin());
-    engine.insert(octree, s.worldPoints(), s.origin());
-  }
+  mapBoth(grid, octree, 3);
   geometry::VoxelKey lo, hi;
   grid.converter().toKey(geometry::Vec3f(-12, -4, -1), lo);
   grid.converter().toKey(geometry::Vec3f(-6, 4, 2), hi);

@@ -7,6 +7,8 @@
 #include <mutex>
 #include <vector>
 
+#include "densemap/util/percentile.h"
+
 namespace densemap::server {
 
 struct LatencySummary {
@@ -37,11 +39,8 @@ class LatencyWindow {
     s.count = v.size();
     if (v.empty()) return s;
     std::sort(v.begin(), v.end());
-    auto at = [&](double q) {
-      return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-    };
-    s.p50_ms = at(0.50);
-    s.p99_ms = at(0.99);
+    s.p50_ms = util::percentileOfSorted(v, 0.50);
+    s.p99_ms = util::percentileOfSorted(v, 0.99);
     s.max_ms = v.back();
     return s;
   }
