@@ -63,8 +63,8 @@ struct ServerOptions {
   int update_catch_up_ms = 100;
   /// Nice value of a late scan's update (-20..0; needs update_nice > 0). 0: an equal share with the query
   /// threads. Below 0 the map falls less far behind under a flood of queries, at the cost of their
-  /// latency (-10 with four back-to-back clients on 2 cores: map lag p50 160-170 ms instead of 200-880,
-  /// query p99 17-26 ms instead of 9; docs/BENCHMARKS.md). Going below 0 needs root, CAP_SYS_NICE or
+  /// latency (-10 with four back-to-back clients on 2 cores: map lag p50 175-179 ms instead of 189-518,
+  /// query p99 ~22 ms instead of ~10; docs/BENCHMARKS.md). Going below 0 needs root, CAP_SYS_NICE or
   /// RLIMIT_NICE >= 20 - value; without it the server keeps 0 and says so.
   int update_late_nice = 0;
   /// Scheduler time slice in microseconds asked for the DDS, query and other latency-bound threads (Linux
