@@ -7,11 +7,12 @@
 #   LOOPS=N              replay loops (default 3: 180 kitti00 scans, 18 s)
 #   POINTS=N             points per query (default 1000)
 #   SERVER_ARGS="..."    extra densemap-server flags, e.g. "--update-threads 1"
+#   CLIENT_ARGS="..."    extra flags of the query client, e.g. "--realtime-priority 10"
 #   SERVER_BIN=PATH      another densemap-server binary (A/B runs against an older build)
 #   DENSEMAP_DOMAIN=N    DDS domain id (default 91)
 set -euo pipefail
 if [[ "${1:-}" == "--help" || "${1:-}" == "-h" ]]; then
-  sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
   exit 0
 fi
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -31,8 +32,9 @@ if [[ "${ROBOT:-1}" != 0 ]]; then
   robot=$!
 fi
 sleep 1
+# shellcheck disable=SC2086
 "$bin/client/densemap-replay" "${dds[@]}" --robots 0 --duration 16 --query-clients 1 --query-rate 100 \
-  --query-points "${POINTS:-1000}" --log-level warn 2>&1 | grep "round trip"
+  --query-points "${POINTS:-1000}" ${CLIENT_ARGS:-} --log-level warn 2>&1 | grep "round trip"
 # The server's own answer time (lock waits included) from its last statistics line.
 grep -o "queries p50 [0-9.]* p99 [0-9.]* ms" "$out/query_tail_server.log" | tail -n 1 | sed 's/^/server-side /' || true
 if [[ -n "$robot" ]]; then

@@ -19,6 +19,7 @@
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
 #include "densemap/util/percentile.h"
+#include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
 
 using namespace densemap;
@@ -99,6 +100,12 @@ int main(int argc, char** argv) {
                  "6.12 wakes short-slice threads sooner; 0: the kernel's default)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  int realtime_priority = 0;
+  app.add_option("--realtime-priority", realtime_priority,
+                 "with query clients: SCHED_FIFO priority (1-99) of their threads and this process's DDS "
+                 "threads (needs root, CAP_SYS_NICE or `ulimit -r`); 0: normal scheduling")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 99));
   app.add_option("--summary-json", summary_json, "write a JSON summary (counts, latencies) to this file");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -138,6 +145,15 @@ int main(int argc, char** argv) {
     dds.name = "densemap-replay";
     // Before the DDS participant: its receive threads and the query clients inherit the slice.
     if (query_clients > 0) util::requestSchedulerSlice(std::chrono::microseconds(latency_slice_us));
+    // Real-time likewise, until the query threads exist (the robots' threads are created after it ends).
+    const bool realtime =
+        query_clients > 0 && realtime_priority > 0 && util::setRealtimePriority(realtime_priority);
+    if (query_clients > 0 && realtime_priority > 0 && !realtime) {
+      spdlog::warn(
+          "--realtime-priority {}: this process may not use SCHED_FIFO; the query clients run at "
+          "normal priority. To allow it: {}",
+          realtime_priority, util::realtimePriorityHint());
+    }
     msg::DdsNode node(dds);
     client::ScanPublisher publisher(node);
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
@@ -227,6 +243,8 @@ int main(int argc, char** argv) {
         query_ms.insert(query_ms.end(), mine.begin(), mine.end());
       });
     }
+
+    if (realtime) util::setRealtimePriority(0);
 
     // One thread per robot, each on its own schedule, started a fraction of a period apart.
     std::size_t per_robot = data.size() * static_cast<std::size_t>(loops);

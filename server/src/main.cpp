@@ -116,6 +116,11 @@ int main(int argc, char** argv) {
                  "kernel's default)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--realtime-priority", o.realtime_priority,
+                 "SCHED_FIFO priority (1-99) of the DDS and query threads, so the map update never delays "
+                 "a query's answer (needs root, CAP_SYS_NICE or `ulimit -r`); 0: normal scheduling")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 99));
   app.add_option("--statistics-period", o.statistics_period_s, "seconds between statistics messages (0: off)")
       ->capture_default_str();
   app.add_option("--save-on-exit", o.save_on_exit, "save the map here (.bt/.ot) when shutting down");

@@ -18,6 +18,7 @@
 #include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/server/occupancy_stage.h"
 #include "densemap/server/update_priority.h"
+#include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
 
 namespace densemap::server {
@@ -178,6 +179,21 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
       options_.pipeline, std::move(stages),
       [this](const ScanJob& j, ScanOutcome o, const std::string& why) { onOutcome(j, o, why); });
   listener_ = std::make_unique<Listener>(*this);
+  // Real-time from here to the end: DDS's threads (they answer point and ray queries) and the query threads
+  // inherit it; the intake and statistics threads drop it, and so does this thread at the end. The
+  // pipeline's threads above were created before it.
+  if (options_.realtime_priority < 0 || options_.realtime_priority > 99)
+    throw std::invalid_argument("realtime_priority must be 0..99");
+  const bool realtime =
+      options_.realtime_priority > 0 && util::setRealtimePriority(options_.realtime_priority);
+  if (options_.realtime_priority > 0 && !realtime) {
+    spdlog::warn(
+        "--realtime-priority {}: this process may not use SCHED_FIFO; DDS and query threads run at "
+        "normal priority. To allow it: {}",
+        options_.realtime_priority, util::realtimePriorityHint());
+  } else if (realtime) {
+    spdlog::info("DDS and query threads at SCHED_FIFO priority {}", options_.realtime_priority);
+  }
   try {
     msg::DdsOptions dds = options_.dds;
     dds.name = options_.server_id;
@@ -193,11 +209,13 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
     scan_reader_ = node_->reader(scans, msg::kScanReaderProfile, listener_.get());
     query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, listener_.get());
   } catch (...) {
+    util::setRealtimePriority(0);
     pipeline_->stop(false);
     throw;
   }
   ingest_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "dm-ingest");
+    util::setRealtimePriority(0);  // bulk work (converting scans)
     ingestLoop();
   });
   for (int i = 0; i < std::max(1, options_.query_threads); ++i)
@@ -207,8 +225,10 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
     });
   stats_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "dm-statistics");
+    util::setRealtimePriority(0);
     statisticsLoop();
   });
+  if (realtime) util::setRealtimePriority(0);
   spdlog::info("{} serving on DDS domain {} ({}): {} map at {} m, method {}, overflow policy {}",
                options_.server_id, options_.dds.domain, options_.dds.loopback ? "loopback" : "all interfaces",
                options_.map.backend, options_.map.resolution, update::toString(options_.update.method),

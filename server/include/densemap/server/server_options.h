@@ -70,6 +70,15 @@ struct ServerOptions {
   /// Scheduler time slice in microseconds asked for the DDS, query and other latency-bound threads (Linux
   /// >= 6.12 honours it; 0 = the kernel's default). The pipeline's stages keep the default.
   int latency_slice_us = 100;
+  /// SCHED_FIFO priority (1..99) of the DDS receive threads (which answer point and ray queries) and the
+  /// query threads; 0 = normal scheduling. On a busy 2-core machine it keeps the nice-19 map update from
+  /// parking a query mid-answer until the next timer tick. With the query client at the same priority
+  /// (densemap-replay --realtime-priority; kitti00 at 10 Hz, 1,000-point queries at 100 Hz) the round
+  /// trip p99 was 1.7-4.4 ms in ten runs against 3.9-6.7 ms without (docs/BENCHMARKS.md). The map update,
+  /// scan intake and statistics never run real-time. Off by default: real-time threads answering a flood
+  /// of box queries could take every core from the map. Needs root, CAP_SYS_NICE or RLIMIT_RTPRIO >= the
+  /// value; without it the server says so and runs normally.
+  int realtime_priority = 0;
   /// Seconds between statistics messages (and log lines); 0 disables them.
   double statistics_period_s = 1.0;
   /// On shutdown: process every queued scan (true) or drop them, counted (false).
