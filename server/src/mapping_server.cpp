@@ -215,7 +215,6 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
   }
   ingest_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "dm-ingest");
-    util::setRealtimePriority(0);  // bulk work (converting scans)
     ingestLoop();
   });
   for (int i = 0; i < std::max(1, options_.query_threads); ++i)
@@ -225,7 +224,7 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
     });
   stats_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "dm-statistics");
-    util::setRealtimePriority(0);
+    util::useBulkScheduling();
     statisticsLoop();
   });
   if (realtime) util::setRealtimePriority(0);
@@ -238,8 +237,8 @@ MappingServer::MappingServer(const ServerOptions& options) : options_(options) {
 MappingServer::~MappingServer() { stop(); }
 
 void MappingServer::ingestLoop() {
-  // Taking and converting scans is bulk work: the kernel's default slice (the short one is for queries).
-  util::requestSchedulerSlice(std::chrono::microseconds(0));
+  // Taking and converting scans is bulk work (the real-time priority and short slice are for queries).
+  util::useBulkScheduling();
   msg::Scan m;
   dds::SampleInfo info;
   while (running_) {

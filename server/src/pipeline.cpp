@@ -1,5 +1,5 @@
 #include "densemap/server/pipeline.h"
-#include "densemap/util/scheduler_slice.h"
+#include "densemap/util/realtime_priority.h"
 
 #include <pthread.h>
 
@@ -100,8 +100,9 @@ void Pipeline::runStage(std::size_t index) {
   Stage* next = index + 1 < stages_.size() ? stages_[index + 1].get() : nullptr;
   // Named so profiles and load-test reports attribute CPU per stage (Linux allows 15 characters).
   pthread_setname_np(pthread_self(), ("dm-" + stage.impl->name()).substr(0, 15).c_str());
-  // Bulk work: the kernel's default slice (the server asks a short one for its latency-bound threads).
-  util::requestSchedulerSlice(std::chrono::microseconds(0));
+  // Bulk work: normal scheduling and the kernel's default slice (the server asks real-time priority and a
+  // short slice for its latency-bound threads only).
+  util::useBulkScheduling();
   for (;;) {
     std::optional<ScanJob> job;
     if (index == 0) {

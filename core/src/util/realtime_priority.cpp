@@ -3,6 +3,8 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include "densemap/util/scheduler_slice.h"
+
 namespace densemap::util {
 
 bool setRealtimePriority(int priority) {
@@ -17,6 +19,12 @@ int realtimePriority() {
   sched_param param{};
   if (pthread_getschedparam(pthread_self(), &policy, &param) != 0 || policy != SCHED_FIFO) return 0;
   return param.sched_priority;
+}
+
+void useBulkScheduling() {
+  // Leaving SCHED_FIFO first: the slice can only be set on a SCHED_OTHER thread.
+  setRealtimePriority(0);
+  requestSchedulerSlice(std::chrono::microseconds(0));
 }
 
 const char* realtimePriorityHint() {

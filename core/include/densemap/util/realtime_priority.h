@@ -20,6 +20,10 @@ bool setRealtimePriority(int priority);
 /// The calling thread's SCHED_FIFO priority; 0 when it is not SCHED_FIFO.
 int realtimePriority();
 
+/// For a thread that does bulk work (pipeline stages, scan intake, statistics): normal scheduling and the
+/// kernel's default slice, whatever the thread that created it had asked for the latency-bound threads.
+void useBulkScheduling();
+
 /// How to allow `priority`, for error messages.
 const char* realtimePriorityHint();
 
