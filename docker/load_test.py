@@ -38,13 +38,17 @@ def find_binary(name, build_dir):
     sys.exit(f"load_test: {name} not found under {build_dir}; build first (./tools/build.sh)")
 
 
-def find_pid(name):
-    """The pid of the first process whose command is `name` (the server, in attach mode)."""
+def find_pid(name, match=None):
+    """The pid of the first process whose command is `name` and, if given, whose command line contains
+    `match` (the server, in attach mode: with pid: host the runner sees every process of the machine)."""
     for entry in os.listdir("/proc"):
         if entry.isdigit():
             try:
                 with open(f"/proc/{entry}/comm") as f:
-                    if f.read().strip() == name[:15]:
+                    if f.read().strip() != name[:15]:
+                        continue
+                with open(f"/proc/{entry}/cmdline") as f:
+                    if match is None or match in f.read().replace("\0", " "):
                         return int(entry)
             except OSError:
                 continue
@@ -206,7 +210,7 @@ def run_attached(a):
     pid = a.server_pid
     deadline = time.time() + 60
     while pid is None and time.time() < deadline:
-        pid = find_pid("densemap-server")
+        pid = find_pid("densemap-server", a.server_match)
         time.sleep(0.5)
     if pid is None:
         print("load_test: no densemap-server process visible (compose: give the runner pid: service:server)",
@@ -247,6 +251,8 @@ def main():
                     help="compose runner: start nothing, sample the visible server, read client summaries here")
     ap.add_argument("--server-pid", type=int, default=None,
                     help="attach: the server's pid (default: the first process named densemap-server)")
+    ap.add_argument("--server-match", default=None,
+                    help="attach: the server is the densemap-server whose command line contains this text")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
     ap.add_argument("--json", metavar="FILE", help="write the report as JSON here")
     ap.add_argument("--max-dropped", type=int, default=None, help="bound: dropped scans over all robots")
@@ -326,9 +332,6 @@ def main():
         print("server profile (perf, self time, top entries):")
         for l in lines[:25]:
             print("  " + l.strip())
-    if a.json:
-        json.dump({"summary": summary, "robots": robots, "queries": queries, "server": samples, "work_dir": work},
-                  open(a.json, "w"), indent=2)
 
     broken = []
     if a.max_dropped is not None and dropped > a.max_dropped:
@@ -341,6 +344,27 @@ def main():
         broken.append(f"resident memory grew {growth:.1%} (bound {a.max_rss_growth:.1%})")
     if failed:
         broken.append(f"client processes failed or are missing: {failed} (summaries in {work})")
+    if a.json:
+        all_lat = [x for r in robots for x in r.get("latencies_ms", [])]
+        all_q = [x for v in by_kind.values() for x in v]
+        report = {
+            "containers": bool(a.attach),
+            "duration_s": a.duration,
+            "robots": [{"robot": (r.get("robot_ids") or ["?"])[0], "sent": r.get("scans_sent", 0),
+                        "processed": r.get("scans_processed", 0), "dropped": r.get("scans_dropped", 0),
+                        "rejected": r.get("scans_rejected", 0), "acknowledged": r.get("scans_acknowledged", 0),
+                        "latency_p50_ms": r.get("latency_p50_ms"), "latency_p99_ms": r.get("latency_p99_ms")}
+                       for r in robots],
+            "latency_p50_ms": round(percentile(all_lat, 0.5), 2), "latency_p99_ms": round(percentile(all_lat, 0.99), 2),
+            "query_p50_ms": round(percentile(all_q, 0.5), 3), "query_p99_ms": round(percentile(all_q, 0.99), 3),
+            "queries": len(all_q), "query_failures": sum(q.get("query_failures", 0) for q in queries),
+            "server_cpu_percent": round(100 * summary["cpu_cores_mean"], 1),
+            "server_rss_mb": {"start": summary["rss_mb_first"], "end": summary["rss_mb_last"]},
+            "summary": summary, "clients": {"robots": robots, "queries": queries}, "server": samples,
+            "work_dir": work, "bounds_broken": broken}
+        for r in robots:
+            r.pop("latencies_ms", None)
+        json.dump(report, open(a.json, "w"), indent=2)
     for b in broken:
         print("BOUND BROKEN:", b)
     return 1 if broken else 0

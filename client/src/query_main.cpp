@@ -9,6 +9,8 @@
 #include "common/cli_common.h"
 #include "densemap/client/map_render.h"
 #include "densemap/client/query_client.h"
+#include "densemap/client/statistics_subscriber.h"
+#include "densemap/msg/dds_options_cli.h"
 
 using namespace densemap;
 using nlohmann::json;
@@ -40,6 +42,37 @@ json statsJson(const msg::MapStatistics& s) {
           {"bounds_max", s.bounds_max()}};
 }
 
+json serverStatisticsJson(const msg::ServerStatistics& s) {
+  json robots = json::array(), stages = json::array();
+  for (const auto& r : s.robots()) {
+    robots.push_back({{"robot", r.robot_id()},
+                      {"received", r.received()},
+                      {"processed", r.processed()},
+                      {"dropped", r.dropped()},
+                      {"rejected", r.rejected()},
+                      {"points_rejected", r.points_rejected()},
+                      {"queue_depth", r.queue_depth()},
+                      {"last_sequence", r.last_sequence()}});
+  }
+  for (const auto& st : s.stages()) {
+    stages.push_back({{"name", st.name()},
+                      {"processed", st.processed()},
+                      {"dropped", st.dropped()},
+                      {"latency_p50_ms", st.latency_p50_ms()},
+                      {"latency_p99_ms", st.latency_p99_ms()}});
+  }
+  return {{"server_id", s.server_id()},
+          {"uptime_s", s.uptime_s()},
+          {"robots", robots},
+          {"stages", stages},
+          {"map", statsJson(s.map_stats())},
+          {"publish_to_map_p50_ms", s.publish_to_map_p50_ms()},
+          {"publish_to_map_p99_ms", s.publish_to_map_p99_ms()},
+          {"queries_answered", s.queries_answered()},
+          {"queries_failed", s.queries_failed()},
+          {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6}};
+}
+
 /// Fails with the reply's status and message when it is not OK.
 void check(const msg::QueryReply& r) {
   if (r.status() != msg::STATUS_OK) {
@@ -55,11 +88,7 @@ int main(int argc, char** argv) {
   bool as_json = false;
   double timeout_s = 10.0;
   std::string layer_name = "occupancy", log_level = "warn";
-  app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
-  app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
-  app.add_flag("--udp-only", dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
-  app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
-      ->check(CLI::ExistingFile);
+  msg::addDdsOptions(app, dds);
   app.add_flag("--json", as_json, "print one JSON object instead of text");
   app.add_option("--timeout", timeout_s, "seconds to wait for the server and for each reply")
       ->capture_default_str();
@@ -87,6 +116,9 @@ int main(int argc, char** argv) {
   ray->add_option("--max-range", max_range, "metres")->capture_default_str();
   ray->add_flag("--ignore-unknown", ignore_unknown, "let the ray pass through unknown cells");
   auto* stats = app.add_subcommand("stats", "map statistics");
+  auto* server_stats = app.add_subcommand(
+      "statistics",
+      "the server's next periodic statistics: per-robot counters, latencies, memory (a health check)");
   std::string save_path;
   auto* save = app.add_subcommand("save", "save the map to a server-side path (.bt or .ot)");
   save->add_option("path", save_path, "file on the server's machine")->required();
@@ -108,8 +140,37 @@ int main(int argc, char** argv) {
   try {
     dds.name = "densemap-query";
     msg::DdsNode node(dds);
-    client::QueryClient qc(node, "query-" + std::to_string(::getpid()));
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    if (*server_stats) {
+      // Statistics are published, not asked for: no request-reply, so it also works while queries queue.
+      client::StatisticsSubscriber sub(node);
+      const auto s = sub.waitForNext(timeout);
+      if (!s) {
+        throw std::runtime_error("no densemap-server statistics on DDS domain " + std::to_string(dds.domain) +
+                                 " within " + std::to_string(timeout_s) +
+                                 " s; is a server running there (with --statistics-period > 0)?");
+      }
+      const json out = serverStatisticsJson(*s);
+      if (as_json) {
+        std::printf("%s\n", out.dump().c_str());
+      } else {
+        std::printf(
+            "server %s, up %.0f s: %llu queries answered (%llu failed), publish-to-map p50 %.1f ms, "
+            "p99 %.1f ms, resident %.0f MB\n",
+            s->server_id().c_str(), s->uptime_s(), static_cast<unsigned long long>(s->queries_answered()),
+            static_cast<unsigned long long>(s->queries_failed()), s->publish_to_map_p50_ms(),
+            s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6);
+        for (const auto& r : s->robots()) {
+          std::printf("  %s: received %llu, processed %llu, dropped %llu, rejected %llu, queue %u/%u\n",
+                      r.robot_id().c_str(), static_cast<unsigned long long>(r.received()),
+                      static_cast<unsigned long long>(r.processed()),
+                      static_cast<unsigned long long>(r.dropped()),
+                      static_cast<unsigned long long>(r.rejected()), r.queue_depth(), r.queue_capacity());
+        }
+      }
+      return 0;
+    }
+    client::QueryClient qc(node, "query-" + std::to_string(::getpid()));
     if (!qc.waitForServer(timeout)) {
       throw std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
                                (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");

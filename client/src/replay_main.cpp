@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
+#include <mutex>
 #include <random>
 #include <set>
 #include <thread>
@@ -18,12 +20,41 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
+#include "densemap/msg/dds_options_cli.h"
 #include "densemap/util/percentile.h"
 #include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
+
+namespace {
+
+/// --scan-log: one JSON object per line, written through at once so a killed robot's log is complete.
+class ScanLog {
+ public:
+  explicit ScanLog(const std::string& path) {
+    if (path.empty()) return;
+    file_.reset(std::fopen(path.c_str(), "a"));
+    if (!file_) throw std::runtime_error("cannot open --scan-log " + path + " for appending");
+  }
+  bool enabled() const { return file_ != nullptr; }
+  void write(const nlohmann::json& event) {
+    const std::string line = event.dump() + "\n";
+    std::lock_guard lock(mutex_);
+    std::fwrite(line.data(), 1, line.size(), file_.get());
+    std::fflush(file_.get());
+  }
+
+ private:
+  struct Close {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+  };
+  std::unique_ptr<std::FILE, Close> file_;
+  std::mutex mutex_;
+};
+
+}  // namespace
 
 using util::percentile;
 
@@ -38,11 +69,7 @@ int main(int argc, char** argv) {
   std::string center_text = "0,0,0", query_kind = "points";
   std::size_t query_points = 1000;
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
-  app.add_option("--domain", dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
-  app.add_flag("--loopback", dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
-  app.add_flag("--udp-only", dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
-  app.add_option("--dds-profile", dds.profile_file, "Fast DDS XML profile file instead of the built-in one")
-      ->check(CLI::ExistingFile);
+  msg::addDdsOptions(app, dds);
   app.add_option(
          "--source", source,
          "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or "
@@ -107,6 +134,10 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0, 99));
   app.add_option("--summary-json", summary_json, "write a JSON summary (counts, latencies) to this file");
+  std::string scan_log_path;
+  app.add_option("--scan-log", scan_log_path,
+                 "append one JSON line per scan sent, refused by DDS and acknowledged, as it happens (kept "
+                 "when the process is killed; the cross-host test reads it)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   cli::setupLogging(log_level);
@@ -156,14 +187,27 @@ int main(int argc, char** argv) {
     }
     msg::DdsNode node(dds);
     client::ScanPublisher publisher(node);
+    std::set<std::string> ids;
+    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
+    ScanLog scan_log(scan_log_path);
+    if (scan_log.enabled()) {
+      // Every robot on the domain receives every acknowledgement: log only this process's robots'.
+      publisher.setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
+        if (!ids.count(a.robot_id())) return;
+        scan_log.write({{"event", "ack"},
+                        {"robot", a.robot_id()},
+                        {"seq", a.seq()},
+                        {"outcome", client::toString(a.outcome())},
+                        {"publish_ns", a.publish_ns()},
+                        {"done_ns", a.done_ns()}});
+      });
+    }
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
     if (!publisher.waitForServer(wait)) {
       throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
                                std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
                                " s; start it first or check --domain");
     }
-    std::set<std::string> ids;
-    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     // The server counts per robot id over its lifetime: report this run's part.
     const auto before = publisher.lastStatistics();
     const client::RobotTotals base = before ? client::totalsFor(*before, ids) : client::RobotTotals{};
@@ -278,10 +322,15 @@ int main(int argc, char** argv) {
             const Eigen::Vector3d t = scan.pose.translation();
             for (int a = 0; a < 3; ++a) robot0[static_cast<std::size_t>(a)] = static_cast<float>(t[a]);
           }
-          if (publisher.publish(id, n, scan)) {
+          const std::int64_t t_ns = msg::nowNs();
+          const bool ok = publisher.publish(id, n, scan);
+          if (ok) {
             progress.step(++sent);
           } else {
             ++refused;
+          }
+          if (scan_log.enabled()) {
+            scan_log.write({{"event", ok ? "sent" : "refused"}, {"robot", id}, {"seq", n}, {"t_ns", t_ns}});
           }
         }
       });
@@ -318,6 +367,7 @@ int main(int argc, char** argv) {
                         {"latency_p50_ms", percentile(lat, 0.5)},
                         {"latency_p99_ms", percentile(lat, 0.99)},
                         {"latency_max_ms", percentile(lat, 1.0)},
+                        {"latencies_ms", lat},  // raw, so a load test can pool robots
                         {"publish_seconds", publish_s},
                         {"total_seconds", total_s},
                         {"server_statistics", stats.has_value()}};

@@ -112,9 +112,16 @@ void ScanPublisher::onAcks(dds::DataReader* reader) {
   dds::SampleInfo info;
   std::lock_guard lock(mutex_);
   while (reader->take_next_sample(&a, &info) == ReturnCode_t::RETCODE_OK) {
-    if (info.valid_data) acks_[{a.robot_id(), a.seq()}] = a;
+    if (!info.valid_data) continue;
+    acks_[{a.robot_id(), a.seq()}] = a;
+    if (ack_observer_) ack_observer_(a);
   }
   changed_.notify_all();
+}
+
+void ScanPublisher::setAckObserver(std::function<void(const msg::ScanAck&)> observer) {
+  std::lock_guard lock(mutex_);
+  ack_observer_ = std::move(observer);
 }
 
 void ScanPublisher::onStatistics(dds::DataReader* reader) {

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <mutex>
 
+#include <fastdds/rtps/common/Locator.h>
+#include <fastrtps/utils/IPLocator.h>
 #include <spdlog/spdlog.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
@@ -39,6 +41,39 @@ void loadProfiles(const std::string& file) {
   }
 }
 
+// Initial peers and multicast (RTPS discovery, Fast DDS "disable multicast" use case): a peer locator with
+// port 0 stands for the domain's unicast discovery ports of participant ids 0..3 on that host.
+void configureDiscovery(const DdsOptions& options, dds::DomainParticipantQos& qos) {
+  namespace rtps = eprosima::fastrtps::rtps;
+  auto& builtin = qos.wire_protocol().builtin;
+  auto peer = [](const std::string& address, std::uint32_t port) {
+    rtps::Locator_t l;
+    l.kind = LOCATOR_KIND_UDPv4;
+    rtps::IPLocator::setIPv4(l, address);
+    l.port = port;
+    return l;
+  };
+  if (!options.peers.empty() || options.no_multicast) {
+    // A non-empty list replaces Fast DDS's default one (the multicast group): say what we still want.
+    for (const auto& p : options.peers) builtin.initialPeersList.push_back(peer(p, 0));
+    if (options.no_multicast) {
+      builtin.initialPeersList.push_back(peer("127.0.0.1", 0));  // participants on this host
+    } else {
+      const auto multicast_port = static_cast<std::uint32_t>(7400 + 250 * options.domain);
+      builtin.initialPeersList.push_back(peer("239.255.0.1", multicast_port));
+    }
+  }
+  if (options.no_multicast) {
+    // An explicit unicast listening locator (any address, well-known port) means no multicast listener.
+    rtps::Locator_t any;
+    any.kind = LOCATOR_KIND_UDPv4;
+    any.port = 0;
+    builtin.metatrafficUnicastLocatorList.clear();
+    builtin.metatrafficUnicastLocatorList.push_back(any);
+    builtin.metatrafficMulticastLocatorList.clear();
+  }
+}
+
 }  // namespace
 
 bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastdds::dds::DataReader& reader) {
@@ -69,6 +104,7 @@ DdsNode::DdsNode(const DdsOptions& options) {
     throw DdsError("the DDS profiles have no participant profile '" + profile + "'");
   }
   qos.name(options.name);
+  configureDiscovery(options, qos);
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain), qos);
   if (participant_ == nullptr) {
     throw DdsError("could not create a DDS participant on domain " + std::to_string(options.domain) +

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/cli_common.h"
+#include "densemap/msg/dds_options_cli.h"
 #include "densemap/server/mapping_server.h"
 #include "densemap/util/retain_freed_memory.h"
 
@@ -17,12 +18,7 @@ int main(int argc, char** argv) {
   server::ServerOptions o;
   std::string method = "superrays+culling", semantics = "batch", overflow = "wait", log_level = "info";
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
-  app.add_option("--domain", o.dds.domain, "DDS domain id")->capture_default_str()->check(CLI::Range(0, 232));
-  app.add_flag("--loopback", o.dds.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
-  app.add_flag("--udp-only", o.dds.udp_only, "DDS over UDP only, no shared memory (between containers)");
-  app.add_option("--dds-profile", o.dds.profile_file,
-                 "Fast DDS XML profile file to use instead of the built-in config/dds_profiles.xml")
-      ->check(CLI::ExistingFile);
+  msg::addDdsOptions(app, o.dds);
   app.add_option("--server-id", o.server_id, "name in statistics and logs")->capture_default_str();
   app.add_option("--backend", o.map.backend, "map backend: grid or octree")
       ->capture_default_str()

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -52,6 +53,8 @@ class ScanPublisher {
   std::optional<msg::ScanAck> ack(const std::string& robot_id, std::uint64_t seq) const;
   /// Publish-to-map latencies (ms) of the applied scans of these robots.
   std::vector<double> latenciesMs(const std::set<std::string>& robots) const;
+  /// Called (on a DDS thread, one at a time) for every acknowledgement as it arrives, e.g. to log it.
+  void setAckObserver(std::function<void(const msg::ScanAck&)> observer);
   /// The last statistics message from the server, if one arrived.
   std::optional<msg::ServerStatistics> lastStatistics() const;
   /// Waits for a statistics message newer than now in which these robots' counts add up to `expected`.
@@ -72,6 +75,7 @@ class ScanPublisher {
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
+  std::function<void(const msg::ScanAck&)> ack_observer_;
   std::optional<msg::ServerStatistics> stats_;
 };
 

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <fastdds/dds/core/policy/QosPolicies.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
@@ -43,6 +44,11 @@ struct DdsOptions {
   bool udp_only = false;
   /// An XML profile file to load instead of the built-in one (same profile names); empty: built-in.
   std::string profile_file;
+  /// Initial discovery peers (IPv4 addresses): participants there are asked directly, by unicast, on the
+  /// domain's well-known ports for participant ids 0..3. Multicast discovery stays on unless `no_multicast`.
+  std::vector<std::string> peers;
+  /// No multicast discovery: only `peers` and this host are asked (networks that block multicast).
+  bool no_multicast = false;
   /// Participant name, shown by DDS tools.
   std::string name = "densemap";
 };

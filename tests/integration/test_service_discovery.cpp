@@ -1,0 +1,82 @@
+// DDS discovery settings shared by every program: --dds-peers / --dds-no-multicast parse, are validated,
+// and two participants configured that way find each other by unicast alone. Across network namespaces
+// (multicast blocked on the links) the same settings are exercised by tests/load/cross_host.sh.
+#include <algorithm>
+#include <chrono>
+
+#include <gtest/gtest.h>
+
+#include "densemap/client/query_client.h"
+#include "densemap/client/scan_publisher.h"
+#include "densemap/msg/dds_options_cli.h"
+#include "densemap/server/mapping_server.h"
+#include "service_harness.h"
+#include "test_simulator.h"
+
+using namespace densemap;
+
+TEST(DdsOptions, PeerListsParseAndBadEntriesAreNamed) {
+  EXPECT_EQ(msg::parsePeerList("10.0.0.1,192.168.1.20"),
+            (std::vector<std::string>{"10.0.0.1", "192.168.1.20"}));
+  EXPECT_TRUE(msg::parsePeerList("").empty());
+  for (const char* bad : {"10.0.0", "server.local", "10.0.0.1:7400", "10.0.0.1,,x", "300.1.1.1"}) {
+    try {
+      msg::parsePeerList(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const msg::DdsError& e) {
+      EXPECT_NE(std::string(e.what()).find("is not an IPv4 address"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(DdsOptions, FlagsFillTheOptionsAndRejectBadPeers) {
+  CLI::App app;
+  msg::DdsOptions o;
+  msg::addDdsOptions(app, o);
+  std::vector<std::string> args{"--dds-no-multicast", "--dds-peers", "10.1.2.3,10.1.2.4",
+                                "--domain",           "7",           "--udp-only"};
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+  EXPECT_EQ(o.domain, 7);
+  EXPECT_TRUE(o.udp_only);
+  EXPECT_TRUE(o.no_multicast);
+  EXPECT_EQ(o.peers, (std::vector<std::string>{"10.1.2.3", "10.1.2.4"}));
+
+  CLI::App bad;
+  msg::DdsOptions ob;
+  msg::addDdsOptions(bad, ob);
+  std::vector<std::string> wrong{"host-a", "--dds-peers"};
+  EXPECT_THROW(bad.parse(wrong), CLI::ValidationError);
+}
+
+// Without multicast, a robot given the server's address as its peer maps its scans and a query client
+// with the same settings gets answers: unicast discovery alone is enough.
+TEST(DdsOptions, UnicastPeersAloneDiscoverTheServer) {
+  auto o = test::serverOptions(116);
+  o.dds.loopback = false;
+  o.dds.udp_only = true;
+  o.dds.no_multicast = true;
+  server::MappingServer srv(o);
+  msg::DdsOptions client_dds;
+  client_dds.domain = 116;
+  client_dds.udp_only = true;
+  client_dds.no_multicast = true;
+  client_dds.peers = {"127.0.0.1"};
+  msg::DdsNode node(client_dds);
+  client::ScanPublisher publisher(node);
+  ASSERT_TRUE(publisher.waitForServer(std::chrono::seconds(20))) << "no discovery through the peer list";
+  io::LidarSimulator sim(test::smallSimulator(3, 16, 256));
+  std::vector<io::Scan> scans;
+  for (std::size_t i = 0; i < sim.size(); ++i) scans.push_back(sim.read(i));
+  for (std::size_t i = 0; i < scans.size(); ++i) ASSERT_TRUE(publisher.publish("peer-robot", i, scans[i]));
+  const auto acks = publisher.waitForAcks({"peer-robot"}, scans.size(), std::chrono::seconds(30));
+  EXPECT_EQ(acks.applied, scans.size());
+  client::QueryClient qc(node, "peer-client");
+  ASSERT_TRUE(qc.waitForServer(std::chrono::seconds(20)));
+  msg::QueryRequest rq;
+  rq.kind(msg::QUERY_STATS);
+  const auto r = qc.call(rq);
+  EXPECT_EQ(r.status(), msg::STATUS_OK);
+  EXPECT_EQ(r.stats().map_version(), scans.size());
+  EXPECT_GT(r.stats().known_cells(), 0u);
+}
