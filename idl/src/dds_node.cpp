@@ -63,6 +63,13 @@ void configureDiscovery(const DdsOptions& options, dds::DomainParticipantQos& qo
       builtin.initialPeersList.push_back(peer("239.255.0.1", multicast_port));
     }
   }
+  if (options.lease_s > 0) {
+    // Announce four times per lease (Fast DDS by default: every 3 s, lease 20 s), so one lost announcement
+    // does not end it.
+    builtin.discovery_config.leaseDuration = eprosima::fastrtps::Duration_t(options.lease_s);
+    builtin.discovery_config.leaseDuration_announcementperiod =
+        eprosima::fastrtps::Duration_t(options.lease_s / 4);
+  }
   if (options.no_multicast) {
     // An explicit unicast listening locator (any address, well-known port) means no multicast listener.
     rtps::Locator_t any;

@@ -44,6 +44,12 @@ void addDdsOptions(CLI::App& app, DdsOptions& o) {
       });
   app.add_flag("--dds-no-multicast", o.no_multicast,
                "no multicast discovery at all: only --dds-peers (and this host) are asked");
+  app.add_option(
+         "--dds-lease-s", o.lease_s,
+         "participant lease in seconds (0: Fast DDS's 20 s): after a crash, peers notice it this late; "
+         "a network outage longer than this drops the peer")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
 }
 
 }  // namespace densemap::msg

@@ -47,7 +47,7 @@ class Run:
         self.a, self.net, self.name, self.discovery = a, net, name, discovery
         self.dir = os.path.join(a.work, name)
         os.makedirs(self.dir, exist_ok=True)
-        self.dds = ["--domain", str(a.domain), "--udp-only"]
+        self.dds = ["--domain", str(a.domain), "--udp-only", *a.dds_args.split()]
 
     def spawn(self, host, cmd, log_name):
         log = open(os.path.join(self.dir, log_name), "w")
@@ -324,11 +324,12 @@ def main():
     ap.add_argument("--domain", type=int, default=173, help="DDS domain id (default 173)")
     ap.add_argument("--stream-s", type=float, default=40.0, help="seconds each robot streams (default 40)")
     ap.add_argument("--fault-at", type=float, default=10.0, help="first fault, seconds into the stream")
+    ap.add_argument("--dds-args", default="", help="more DDS flags for every program (e.g. --dds-lease-s 6)")
     ap.add_argument("--keep-logs", help="copy the programs' logs and scan logs into this directory")
     a = ap.parse_args()
     net = Net(a.ns_prefix, a.hosts)
     report = {"transport": "UDPv4 only (--udp-only), each program in its own network namespace, veth + bridge",
-              "source": a.source, "rate_hz": RATE, "robots": 2, "query_clients": 1, "discovery": {},
+              "source": a.source, "dds_args": a.dds_args, "rate_hz": RATE, "robots": 2, "query_clients": 1, "discovery": {},
               "faults": []}
     failures = []
     t = time.time()

@@ -49,6 +49,10 @@ struct DdsOptions {
   std::vector<std::string> peers;
   /// No multicast discovery: only `peers` and this host are asked (networks that block multicast).
   bool no_multicast = false;
+  /// Participant lease duration in seconds (0: Fast DDS's 20 s, also ROS 2's). A peer silent this long is
+  /// dropped: a shorter lease lets robots give up a crashed server sooner (their reliable scan writer waits
+  /// for its acknowledgements until then) but drops peers behind shorter network outages.
+  double lease_s = 0.0;
   /// Participant name, shown by DDS tools.
   std::string name = "densemap";
 };
