@@ -251,6 +251,8 @@ def main():
                     help="compose runner: start nothing, sample the visible server, read client summaries here")
     ap.add_argument("--server-pid", type=int, default=None,
                     help="attach: the server's pid (default: the first process named densemap-server)")
+    ap.add_argument("--containers", action="store_true",
+                    help="attach: the server and clients are containers (recorded in the report)")
     ap.add_argument("--server-match", default=None,
                     help="attach: the server is the densemap-server whose command line contains this text")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
@@ -348,7 +350,7 @@ def main():
         all_lat = [x for r in robots for x in r.get("latencies_ms", [])]
         all_q = [x for v in by_kind.values() for x in v]
         report = {
-            "containers": bool(a.attach),
+            "containers": a.containers,
             "duration_s": a.duration,
             "robots": [{"robot": (r.get("robot_ids") or ["?"])[0], "sent": r.get("scans_sent", 0),
                         "processed": r.get("scans_processed", 0), "dropped": r.get("scans_dropped", 0),

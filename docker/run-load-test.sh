@@ -6,7 +6,7 @@
 # report and exits 1 when a bound is broken (any dropped scan, a client that failed).
 #
 #   docker/run-load-test.sh [--robots N] [--query-clients M] [--duration S] [--rate HZ] [--source SRC]
-#                           [--query-points P] [--domain D] [--json FILE] [--secure]
+#                           [--query-points P] [--domain D] [--server-args "FLAGS"] [--json FILE] [--secure]
 #
 # Defaults: 2 robots at 10 Hz from the simulator's 64x1024 LiDAR, 4 query clients asking 1,000 points 20
 # times a second, 60 s, domain 0. Works with `docker compose` v2 and Debian 12's docker-compose 1.29.
@@ -14,6 +14,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 robots=2 query_clients=4 duration=60 rate=10 source="sim:scans=20" query_points=1000 domain=0 json="" secure=0
+server_args=""
 usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -24,6 +25,7 @@ while [ $# -gt 0 ]; do
     --source) source="$2"; shift 2 ;;
     --query-points) query_points="$2"; shift 2 ;;
     --domain) domain="$2"; shift 2 ;;
+    --server-args) server_args="$2"; shift 2 ;;
     --json) json="$2"; shift 2 ;;
     --secure) secure=1; shift ;;
     -h|--help) usage; exit 0 ;;
@@ -105,8 +107,10 @@ docker build --network host -f "$root/docker/Dockerfile" -t densemap:latest "$ro
   echo "run-load-test: docker build failed" >&2
   exit 1
 }
-log "image built in $(( $(date +%s) - t_build )) s: runtime $(docker image inspect -f '{{.Size}}' densemap:latest |
-  awk '{printf "%.0f MB", $1 / 1e6}')"
+# The build stage under its own tag too (from the cache, no work), so both sizes can be read.
+docker build --network host --target build -f "$root/docker/Dockerfile" -t densemap:build "$root" > /dev/null 2>&1 || true
+size() { docker image inspect -f '{{.Size}}' "$1" 2> /dev/null | awk '{printf "%.0f MB", $1 / 1e6}'; }
+log "image built in $(( $(date +%s) - t_build )) s: runtime densemap:latest $(size densemap:latest), build stage $(size densemap:build)"
 
 # 6. The run. Results in a host directory the containers' user (uid 999 in the image) may write.
 results="$work/results"
@@ -114,7 +118,7 @@ mkdir -p "$results"
 chown 999 "$results" 2> /dev/null || chmod 777 "$results"
 max_scans=$(awk -v d="$duration" -v r="$rate" 'BEGIN {printf "%d", d * r}')
 export ROBOTS=$robots QUERY_CLIENTS=$query_clients DURATION=$duration RATE=$rate SOURCE=$source DOMAIN=$domain \
-  QUERY_POINTS=$query_points MAX_SCANS=$max_scans RESULTS=$results
+  QUERY_POINTS=$query_points MAX_SCANS=$max_scans RESULTS=$results SERVER_ARGS=$server_args
 project="densemap-load-$$"
 compose_args=(-f "$root/docker/compose.yaml" -p "$project")
 log "compose (${compose[*]}): $robots robot(s) at $rate Hz from $source, $query_clients query client(s), ${duration} s"

@@ -23,5 +23,14 @@ s = r["summary"]
 assert s["scans_processed"] == 20, s
 assert s["query_kinds"]["box"]["queries"] > 10, s
 assert len(r["server"]) >= 2, r["server"]
+# The report's top-level fields (docker/run-load-test.sh --json prints the same).
+for key in ("latency_p50_ms", "latency_p99_ms", "query_p50_ms", "query_p99_ms", "server_cpu_percent",
+            "duration_s"):
+    assert isinstance(r[key], (int, float)), (key, r.get(key))
+assert r["containers"] is False, r["containers"]
+assert set(r["server_rss_mb"]) == {"start", "end"} and r["server_rss_mb"]["end"] > 0, r["server_rss_mb"]
+assert [(x["sent"], x["processed"], x["dropped"], x["rejected"]) for x in r["robots"]] == [(20, 20, 0, 0)], r["robots"]
+assert r["robots"][0]["robot"] == "attach-0", r["robots"]
+assert 0 < r["latency_p50_ms"] <= r["latency_p99_ms"], r
 print("attach mode report ok:", s["scans_processed"], "scans,", s["query_kinds"]["box"]["queries"], "box queries")
 PY

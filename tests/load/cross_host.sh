@@ -4,7 +4,8 @@
 # the namespaces' common /dev/shm cannot hide the network). Two scenarios:
 #   1. multicast discovery (as a LAN does it): faults (a) one robot's link down 5 s mid-stream, then up;
 #      (b) a robot process killed (SIGKILL) and restarted;
-#   2. multicast off on every link, discovery through initial peers from the configuration (--dds-peers):
+#   2. multicast blocked by the bridge (no multicast forwarded), discovery through initial peers given to the
+#      clients (--dds-peers; the server keeps its defaults):
 #      first a robot without peers must fail to find the server (multicast is really off), then
 #      fault (c) the server killed (SIGKILL) and restarted while the robots keep publishing.
 # Prints a report and writes it as JSON (--json FILE); exits 1 when a check fails: with the default `wait`
