@@ -14,33 +14,23 @@ namespace dds = eprosima::fastdds::dds;
 class ScanPublisher::Listener : public dds::DataReaderListener {
  public:
   explicit Listener(ScanPublisher& p) : p_(p) {}
-  // Told apart by topic, not by the member pointers: data can arrive before create_datareader() returns.
-  void on_data_available(dds::DataReader* r) override {
-    if (r->get_topicdescription()->get_name() == msg::kScanAckTopic) {
-      p_.onAcks(r);
-    } else {
-      p_.onStatistics(r);
-    }
-  }
+  void on_data_available(dds::DataReader* r) override { p_.onAcks(r); }
 
  private:
   ScanPublisher& p_;
 };
 
-ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node) {
+ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node), statistics_(node) {
   listener_ = std::make_unique<Listener>(*this);
   auto* scans = node_.topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
   auto* acks = node_.topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
-  auto* stats = node_.topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
   writer_ = node_.writer(scans, msg::kScanWriterProfile);
   ack_reader_ = node_.reader(acks, msg::kMessageReaderProfile, listener_.get());
-  stats_reader_ = node_.reader(stats, msg::kMessageReaderProfile, listener_.get());
 }
 
 ScanPublisher::~ScanPublisher() {
   // Stop callbacks before the listener goes away.
   node_.remove(ack_reader_);
-  node_.remove(stats_reader_);
   node_.remove(writer_);
 }
 
@@ -124,16 +114,6 @@ void ScanPublisher::setAckObserver(std::function<void(const msg::ScanAck&)> obse
   ack_observer_ = std::move(observer);
 }
 
-void ScanPublisher::onStatistics(dds::DataReader* reader) {
-  msg::ServerStatistics s;
-  dds::SampleInfo info;
-  std::lock_guard lock(mutex_);
-  while (reader->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
-    if (info.valid_data) stats_ = s;
-  }
-  changed_.notify_all();
-}
-
 AckCounts ScanPublisher::acks(const std::set<std::string>& robots) const {
   std::lock_guard lock(mutex_);
   AckCounts c;
@@ -175,25 +155,17 @@ std::vector<double> ScanPublisher::latenciesMs(const std::set<std::string>& robo
   return out;
 }
 
-std::optional<msg::ServerStatistics> ScanPublisher::lastStatistics() const {
-  std::lock_guard lock(mutex_);
-  return stats_;
-}
+std::optional<msg::ServerStatistics> ScanPublisher::lastStatistics() const { return statistics_.last(); }
 
 std::optional<msg::ServerStatistics> ScanPublisher::waitForStatistics(const std::set<std::string>& robots,
                                                                       std::uint64_t expected,
                                                                       std::chrono::milliseconds timeout) {
-  const std::int64_t since = msg::nowNs();
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  std::unique_lock lock(mutex_);
-  for (;;) {
-    if (stats_ && stats_->stamp_ns() >= since) {
-      const RobotTotals t = totalsFor(*stats_, robots);
-      if (t.processed + t.dropped + t.rejected >= expected) return stats_;
-    }
-    if (std::chrono::steady_clock::now() >= deadline) return stats_;
-    changed_.wait_for(lock, std::chrono::milliseconds(50));
-  }
+  return statistics_.waitUntil(
+      [&](const msg::ServerStatistics& s) {
+        const RobotTotals t = totalsFor(s, robots);
+        return t.processed + t.dropped + t.rejected >= expected;
+      },
+      timeout);
 }
 
 RobotTotals totalsFor(const msg::ServerStatistics& s, const std::set<std::string>& robots) {

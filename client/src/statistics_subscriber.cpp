@@ -38,9 +38,21 @@ void StatisticsSubscriber::onData(dds::DataReader* reader) {
 
 std::optional<msg::ServerStatistics> StatisticsSubscriber::waitForNext(std::chrono::milliseconds timeout) {
   const std::int64_t since = msg::nowNs();
+  auto s = waitUntil([](const msg::ServerStatistics&) { return true; }, timeout);
+  return s && s->stamp_ns() >= since ? s : std::nullopt;
+}
+
+std::optional<msg::ServerStatistics> StatisticsSubscriber::waitUntil(
+    const std::function<bool(const msg::ServerStatistics&)>& done, std::chrono::milliseconds timeout) {
+  const std::int64_t since = msg::nowNs();
   std::unique_lock lock(mutex_);
-  if (changed_.wait_for(lock, timeout, [&] { return last_ && last_->stamp_ns() >= since; })) return last_;
-  return std::nullopt;
+  changed_.wait_for(lock, timeout, [&] { return last_ && last_->stamp_ns() >= since && done(*last_); });
+  return last_;
+}
+
+std::optional<msg::ServerStatistics> StatisticsSubscriber::last() const {
+  std::lock_guard lock(mutex_);
+  return last_;
 }
 
 }  // namespace densemap::client

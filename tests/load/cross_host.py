@@ -74,6 +74,12 @@ class Run:
                "--log-level", "warn", *self.discovery.get("robot", [])]
         return self.spawn("q", cmd, "query.log")
 
+    def start_stream(self, seconds):
+        """Both robots and the query client, from now: (t0 in s, t0 in ns, robot A, robot B, query)."""
+        t0, t0_ns = time.time(), now()
+        scans = int(seconds * RATE)
+        return t0, t0_ns, self.robot("ra", "ra", scans), self.robot("rb", "rb", scans), self.query_client(seconds)
+
     def statistics(self):
         """The server's next statistics message, asked from the query client's host."""
         cmd = ["ip", "netns", "exec", self.net.ns("q"), os.path.join(self.a.build, "client", "densemap-query"),
@@ -167,11 +173,7 @@ def scenario_multicast(a, net, report, failures):
         failures.append("multicast: the server's statistics never reached the query host")
         stop(server)
         return
-    t0 = time.time()
-    t0_ns = now()
-    ra = run.robot("ra", "ra", int(duration * RATE))
-    rb = run.robot("rb", "rb", int(duration * RATE))
-    query = run.query_client(duration)
+    t0, t0_ns, ra, rb, query = run.start_stream(duration)
     # (a) robot A's link down for 5 s, mid-stream.
     sleep_until(t0, a.fault_at)
     down_ns = now()
@@ -266,11 +268,7 @@ def scenario_initial_peers(a, net, report, failures):
         failures.append("peers: the server's statistics never reached the query host through --dds-peers")
         stop(server)
         return
-    t0 = time.time()
-    t0_ns = now()
-    ra = run.robot("ra", "ra", int(duration * RATE))
-    rb = run.robot("rb", "rb", int(duration * RATE))
-    query = run.query_client(duration)
+    t0, t0_ns, ra, rb, query = run.start_stream(duration)
     sleep_until(t0, a.fault_at)
     server.kill()
     server.wait()

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "densemap/client/statistics_subscriber.h"
 #include "densemap/io/scan.h"
 #include "densemap/msg/dds_node.h"
 #include "densemap/msg/densemap.h"
@@ -65,18 +66,16 @@ class ScanPublisher {
  private:
   class Listener;
   void onAcks(eprosima::fastdds::dds::DataReader* reader);
-  void onStatistics(eprosima::fastdds::dds::DataReader* reader);
 
   msg::DdsNode& node_;
   std::unique_ptr<Listener> listener_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   eprosima::fastdds::dds::DataReader* ack_reader_ = nullptr;
-  eprosima::fastdds::dds::DataReader* stats_reader_ = nullptr;
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
   std::function<void(const msg::ScanAck&)> ack_observer_;
-  std::optional<msg::ServerStatistics> stats_;
+  StatisticsSubscriber statistics_;
 };
 
 /// The DDS message for a scan: sensor-frame points (or world-frame points with frame_id "world"), the pose

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -23,6 +24,11 @@ class StatisticsSubscriber {
   /// The first statistics message stamped after this call, or nothing when none arrives in time (no server,
   /// or one with --statistics-period 0).
   std::optional<msg::ServerStatistics> waitForNext(std::chrono::milliseconds timeout);
+  /// The first message stamped after this call for which `done` holds; on timeout the last one (or nothing).
+  std::optional<msg::ServerStatistics> waitUntil(
+      const std::function<bool(const msg::ServerStatistics&)>& done, std::chrono::milliseconds timeout);
+  /// The last message, if one arrived.
+  std::optional<msg::ServerStatistics> last() const;
 
  private:
   class Listener;
@@ -31,7 +37,7 @@ class StatisticsSubscriber {
   msg::DdsNode& node_;
   std::unique_ptr<Listener> listener_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<msg::ServerStatistics> last_;
 };
