@@ -185,11 +185,12 @@ int main(int argc, char** argv) {
           "normal priority. To allow it: {}",
           realtime_priority, util::realtimePriorityHint());
     }
-    msg::DdsNode node(dds);
-    client::ScanPublisher publisher(node);
+    // Before the publisher: its acknowledgement observer uses both until the publisher is gone.
     std::set<std::string> ids;
     for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     ScanLog scan_log(scan_log_path);
+    msg::DdsNode node(dds);
+    client::ScanPublisher publisher(node);
     if (scan_log.enabled()) {
       // Every robot on the domain receives every acknowledgement: log only this process's robots'.
       publisher.setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
