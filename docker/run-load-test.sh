@@ -100,7 +100,7 @@ fi
 
 # 4. Base images, 5. the image (dependencies layer cached between runs).
 "$root/docker/make-base-image.sh"
-log "building densemap:latest (first build on a machine: ~20 min; log $work/build.log)"
+log "building densemap:latest (first build on a machine: ~6 min, measured 351 s; log $work/build.log)"
 t_build=$(date +%s)
 docker build --network host -f "$root/docker/Dockerfile" -t densemap:latest "$root" > "$work/build.log" 2>&1 || {
   tail -30 "$work/build.log" >&2
