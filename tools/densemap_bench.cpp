@@ -14,7 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"

@@ -13,7 +13,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
 #include "densemap/dense/isotropic_kernel_layer.h"
 #include "densemap/densify/densify_dataset.h"

@@ -14,7 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/densify/densify_dataset.h"
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/io/pcd_file.h"

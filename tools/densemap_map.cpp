@@ -7,7 +7,7 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"

@@ -10,7 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <nanoflann.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
 #include "densemap/dense/occupancy_samples.h"
 

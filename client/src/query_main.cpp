@@ -6,7 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/client/map_render.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/statistics_subscriber.h"
@@ -70,11 +70,14 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
           {"publish_to_map_p99_ms", s.publish_to_map_p99_ms()},
           {"queries_answered", s.queries_answered()},
           {"queries_failed", s.queries_failed()},
+          {"commands_done", s.commands_done()},
+          {"commands_failed", s.commands_failed()},
           {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6}};
 }
 
 /// Fails with the reply's status and message when it is not OK.
-void check(const msg::QueryReply& r) {
+template <class Reply>
+void check(const Reply& r) {
   if (r.status() != msg::STATUS_OK) {
     throw std::runtime_error("server: " + client::toString(r.status()) + ": " + r.message());
   }
@@ -119,9 +122,14 @@ int main(int argc, char** argv) {
   auto* server_stats = app.add_subcommand(
       "statistics",
       "the server's next periodic statistics: per-robot counters, latencies, memory (a health check)");
-  std::string save_path;
-  auto* save = app.add_subcommand("save", "save the map to a server-side path (.bt or .ot)");
-  save->add_option("path", save_path, "file on the server's machine")->required();
+  std::string map_name;
+  auto* save = app.add_subcommand("save", "save the map as NAME.bt or NAME.ot in the server's map directory");
+  save->add_option("name", map_name,
+                   "a file name (no path): NAME.bt keeps each cell's state, NAME.ot its log-odds")
+      ->required();
+  auto* load =
+      app.add_subcommand("load", "replace the server's map with NAME.bt or NAME.ot from its map directory");
+  load->add_option("name", map_name, "a file name in the server's map directory")->required();
   auto* clear = app.add_subcommand("clear", "forget every cell in a box");
   clear->add_option("--min", box_min, "lower corner x,y,z")->required();
   clear->add_option("--max", box_max, "upper corner x,y,z")->required();
@@ -170,11 +178,34 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
-    client::QueryClient qc(node, "query-" + std::to_string(::getpid()));
-    if (!qc.waitForServer(timeout)) {
-      throw std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
-                               (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");
+    const std::string client_id = "query-" + std::to_string(::getpid());
+    auto noServer = [&] {
+      return std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
+                                (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");
+    };
+    if (*save || *load || *clear || *reset) {
+      // Commands go to the admin topic (a permissions file may grant queries but not these).
+      client::AdminClient ac(node, client_id);
+      if (!ac.waitForServer(timeout)) throw noServer();
+      const msg::AdminRequest rq = *save    ? client::saveRequest(map_name)
+                                   : *load  ? client::loadRequest(map_name)
+                                   : *clear ? client::clearBoxRequest(parseXyz(box_min), parseXyz(box_max))
+                                            : client::resetRequest();
+      // A save or load of a large map takes a while: allow a minute beyond --timeout.
+      const auto r = ac.call(rq, timeout + std::chrono::seconds(60));
+      check(r);
+      json out = {
+          {"map_version", r.map_version()}, {"cells_changed", r.cells_changed()}, {"message", r.message()}};
+      if (*save || *load) out["map"] = statsJson(r.stats());
+      if (as_json) {
+        std::printf("%s\n", out.dump().c_str());
+      } else {
+        std::printf("%s\n", r.message().c_str());
+      }
+      return 0;
     }
+    client::QueryClient qc(node, client_id);
+    if (!qc.waitForServer(timeout)) throw noServer();
     msg::QueryRequest rq;
     rq.layer(layer_name == "dense"   ? msg::LAYER_DENSE
              : layer_name == "fused" ? msg::LAYER_FUSED
@@ -236,16 +267,13 @@ int main(int argc, char** argv) {
           std::printf("no hit: %s\n", r.message().c_str());
         }
       }
-    } else if (*stats || *save) {
-      rq.kind(*stats ? msg::QUERY_STATS : msg::QUERY_SAVE);
-      rq.path(save_path);
+    } else if (*stats) {
+      rq.kind(msg::QUERY_STATS);
       const auto r = qc.call(rq, timeout);
       check(r);
       out = statsJson(r.stats());
-      if (*save) out["saved"] = save_path;
       if (!as_json) {
         const auto& s = r.stats();
-        if (*save) std::printf("saved %s\n", save_path.c_str());
         std::printf(
             "%s map, %.2f m, version %llu: %llu known cells (%llu occupied), %.1f MB\n"
             "bounds %.1f %.1f %.1f .. %.1f %.1f %.1f\n",
@@ -255,14 +283,6 @@ int main(int argc, char** argv) {
             s.bounds_min()[0], s.bounds_min()[1], s.bounds_min()[2], s.bounds_max()[0], s.bounds_max()[1],
             s.bounds_max()[2]);
       }
-    } else if (*clear || *reset) {
-      rq = *clear ? client::boxRequest(msg::QUERY_CLEAR_BOX, parseXyz(box_min), parseXyz(box_max))
-                  : msg::QueryRequest();
-      if (*reset) rq.kind(msg::QUERY_RESET);
-      const auto r = qc.call(rq, timeout);
-      check(r);
-      out = {{"map_version", r.map_version()}, {"cells_changed", r.cells_changed()}};
-      if (!as_json) std::printf("%s\n", r.message().c_str());
     } else if (*render) {
       msg::QueryRequest srq;
       srq.kind(msg::QUERY_STATS);

@@ -16,7 +16,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"

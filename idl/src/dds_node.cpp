@@ -1,4 +1,5 @@
 #include "densemap/msg/dds_node.h"
+#include "densemap/util/wall_clock.h"
 
 #include <chrono>
 #include <mutex>
@@ -91,11 +92,7 @@ bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastd
   return pub.current_count > 0 && sub.current_count > 0;
 }
 
-std::int64_t nowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
+std::int64_t nowNs() { return util::wallClockNs(); }
 
 DdsNode::DdsNode(const DdsOptions& options) {
   if (options.domain < 0 || options.domain > 232) {

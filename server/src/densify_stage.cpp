@@ -1,11 +1,11 @@
 #include "densemap/server/densify_stage.h"
 
-#include <filesystem>
 #include <stdexcept>
 
 #include <spdlog/spdlog.h>
 
 #include "densemap/densify/iln_upsampler.h"
+#include "densemap/densify/model_files.h"
 
 namespace densemap::server {
 
@@ -23,19 +23,7 @@ std::unique_ptr<densify::RangeUpsampler> makeUpsampler(const DensifyOptions& o) 
   if (o.method == "bilinear") return std::make_unique<densify::BilinearUpsampler>();
   if (o.method != "iln")
     throw std::invalid_argument("densify method must be none, iln or bilinear, not " + o.method);
-  std::string path = o.weights;
-  if (path.empty()) {
-    for (const char* dir : {DENSEMAP_MODEL_DIR, "/opt/densemap/share/densemap/models"}) {
-      const auto p = std::filesystem::path(dir) / "iln_compact.pt";
-      if (std::filesystem::exists(p)) {
-        path = p.string();
-        break;
-      }
-    }
-    if (path.empty())
-      throw std::runtime_error(
-          "no ILN weights found (models/iln/iln_compact.pt); pass --densify-weights FILE");
-  }
+  const std::string path = o.weights.empty() ? densify::shippedWeights() : o.weights;
   densify::IlnUpsampler::setThreads(o.threads);
   auto net = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(path));
   spdlog::info("densify: ILN from {} ({} parameters)", path, net->parameterCount());

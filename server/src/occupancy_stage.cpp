@@ -1,6 +1,10 @@
 #include "densemap/server/occupancy_stage.h"
 
-#include "densemap/msg/dds_node.h"
+#include <fmt/format.h>
+
+#include "densemap/server/box_keys.h"
+#include "densemap/server/request_error.h"
+#include "densemap/util/wall_clock.h"
 
 namespace densemap::server {
 
@@ -14,7 +18,7 @@ StageResult OccupancyStage::process(ScanJob& job) {
   std::uint64_t version = 0;
   // Late once it has been in the server for the catch-up time (received_ns is system-clock time).
   const auto late_at = std::chrono::steady_clock::now() +
-                       std::chrono::nanoseconds(job.received_ns - msg::nowNs()) + priority_.catchUp();
+                       std::chrono::nanoseconds(job.received_ns - util::wallClockNs()) + priority_.catchUp();
   std::optional<update::UpdateStats> stats;
   priority_.run(late_at, [&] {
     stats = engine_.insert(store_.writerView(), world, job.scan.origin(),
@@ -23,15 +27,47 @@ StageResult OccupancyStage::process(ScanJob& job) {
                              version = store_.version();
                            });
   });
-  if (!stats) {
-    return StageResult::reject("the sensor origin lies outside the map's key range (|coordinate| > " +
-                               std::to_string(store_.writerView().resolution() * geometry::kKeyCenter) +
-                               " m)");
+  if (!stats) {  // validateScan checks the origin first; kept so a missed case is a rejection, not a crash
+    return StageResult::reject("the sensor origin lies outside the map's key range");
   }
   job.points_rejected += static_cast<std::uint32_t>(stats->rejected);
   job.map_version = version;
-  job.in_map_ns = msg::nowNs();
+  job.in_map_ns = util::wallClockNs();
   return {};
+}
+
+void OccupancyStage::applyChange(MapChange& change) {
+  CommandResult& r = change.result;
+  try {
+    if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
+      const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
+      store_.write([&](map::OccupancyMap& m) { r.cells_changed = m.eraseBox(lo, hi); });
+      r.message = fmt::format("cleared {} cells", r.cells_changed);
+    } else if (std::holds_alternative<ResetCommand>(change.command)) {
+      store_.write([&](map::OccupancyMap& m) {
+        r.cells_changed = m.knownCells();
+        m.clear();
+      });
+      r.message = fmt::format("reset: forgot {} cells", r.cells_changed);
+    } else if (std::holds_alternative<LoadCommand>(change.command)) {
+      r.cells_changed = change.loaded->knownCells();
+      store_.replace(std::move(change.loaded));
+    } else if (std::holds_alternative<SaveCommand>(change.command)) {
+      // The writer is the map's only writer, so it copies without the lock: readers go on meanwhile and
+      // only the update waits for the copy (measured: snapshot_ms).
+      const auto t0 = std::chrono::steady_clock::now();
+      change.snapshot = store_.writerView().clone();
+      change.snapshot_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+    r.map_version = store_.version();
+  } catch (const RequestError& e) {
+    r.status = e.status();
+    r.message = e.what();
+  } catch (const std::exception& e) {
+    r.status = Status::kFailed;
+    r.message = e.what();
+  }
 }
 
 }  // namespace densemap::server

@@ -56,10 +56,11 @@ void Pipeline::rejectAtDoor(const ScanJob& job, const std::string& why) {
     r->counters.last_seq = job.seq;
   }
   spdlog::warn("scan {}#{} rejected: {}", job.robot_id, job.seq, why);
+  if (job.on_outcome) job.on_outcome(job, ScanOutcome::kRejected, why);
   if (listener_) listener_(job, ScanOutcome::kRejected, why);
 }
 
-bool Pipeline::submit(ScanJob job) {
+bool Pipeline::submit(ScanJob&& job) {
   if (!accepting_) return false;
   Robot* r = robot(job.robot_id);
   if (r == nullptr) {
@@ -82,8 +83,24 @@ bool Pipeline::submit(ScanJob job) {
   return true;
 }
 
+bool Pipeline::submitChange(std::shared_ptr<MapChange> change) {
+  {
+    std::lock_guard lock(robots_mutex_);
+    if (!accepting_) return false;
+    changes_.push_back(std::move(change));
+  }
+  arrival_.notify_one();
+  return true;
+}
+
 std::optional<ScanJob> Pipeline::nextRoundRobin() {
   std::lock_guard lock(robots_mutex_);
+  if (!changes_.empty()) {
+    ScanJob job;
+    job.change = std::move(changes_.front());
+    changes_.pop_front();
+    return job;
+  }
   // next_robot_ is one past the robot served last (not wrapped, so a robot added since is next in turn).
   for (std::size_t n = 0; n < order_.size(); ++n) {
     const std::size_t i = (next_robot_ + n) % order_.size();
@@ -109,7 +126,6 @@ void Pipeline::runStage(std::size_t index) {
       job = nextRoundRobin();
       if (!job) {
         if (!accepting_) break;  // stop(): every robot queue has been emptied
-        stage.impl->idle();
         std::unique_lock lock(arrival_mutex_);
         arrival_.wait_for(lock, 10ms);
         continue;
@@ -118,11 +134,18 @@ void Pipeline::runStage(std::size_t index) {
       job = stage.input.pop(10ms);
       if (!job) {
         if (stage.input.closedAndEmpty()) break;
-        stage.impl->idle();
         continue;
       }
     }
-    stage.impl->idle();
+    if (job->change) {
+      stage.impl->applyChange(*job->change);
+      if (next != nullptr) {
+        next->input.push(std::move(*job));  // never dropped (the queue keeps commands)
+      } else {
+        job->change->done.set_value();
+      }
+      continue;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     StageResult result = stage.impl->process(*job);
     stage.latency.add(
@@ -147,7 +170,6 @@ void Pipeline::runStage(std::size_t index) {
     }
   }
   // Drain or drop is decided by stop(); here the stage's input is finished: close the next one.
-  stage.impl->idle();
   if (next != nullptr) next->input.close();
   --stages_running_;
 }
@@ -168,6 +190,7 @@ void Pipeline::finish(const ScanJob& job, ScanOutcome outcome, const std::string
     spdlog::warn("scan {}#{} {}: {}", job.robot_id, job.seq,
                  outcome == ScanOutcome::kDropped ? "dropped" : "rejected", why);
   }
+  if (job.on_outcome) job.on_outcome(job, outcome, why);
   if (listener_) listener_(job, outcome, why);
   --in_flight_;
 }
@@ -175,10 +198,10 @@ void Pipeline::finish(const ScanJob& job, ScanOutcome outcome, const std::string
 void Pipeline::stop(bool drain) {
   std::lock_guard stop_lock(stop_mutex_);
   if (stopped_) return;
-  accepting_ = false;
   std::vector<Robot*> robots;
   {
     std::lock_guard lock(robots_mutex_);
+    accepting_ = false;  // under the lock: a command is either queued before this or refused
     robots = order_;
   }
   for (Robot* r : robots) r->queue.close();  // producers blocked under the wait policy return
@@ -190,6 +213,17 @@ void Pipeline::stop(bool drain) {
   arrival_.notify_all();
   for (auto& s : stages_) {
     if (s->worker.joinable()) s->worker.join();
+  }
+  // A command queued as the first stage was leaving: give it up, said so.
+  std::deque<std::shared_ptr<MapChange>> late;
+  {
+    std::lock_guard lock(robots_mutex_);
+    late.swap(changes_);
+  }
+  for (auto& c : late) {
+    c->result.status = Status::kUnavailable;
+    c->result.message = "the server is shutting down";
+    c->done.set_value();
   }
   stopped_ = true;
 }

@@ -6,8 +6,9 @@
 
 namespace densemap::server {
 
-std::string validateScan(ScanJob& job, const ScanLimits& limits) {
+std::string validateScan(ScanJob& job, const ScanLimits& limits, const geometry::KeyConverter& conv) {
   auto& points = job.scan.points;
+  if (job.robot_id.empty()) return "the scan has no robot_id";
   if (points.empty()) return "empty scan (no points)";
   if (points.size() > limits.max_points) {
     return fmt::format("{} points is over the limit of {} (raise limits.max_points if this LiDAR needs it)",
@@ -15,6 +16,13 @@ std::string validateScan(ScanJob& job, const ScanLimits& limits) {
   }
   for (double v : job.position) {
     if (!std::isfinite(v)) return "the sensor position is not finite";
+  }
+  geometry::VoxelKey origin_key;
+  const geometry::Vec3f origin(static_cast<float>(job.position[0]), static_cast<float>(job.position[1]),
+                               static_cast<float>(job.position[2]));
+  if (!conv.toKey(origin, origin_key)) {
+    return fmt::format("the sensor position lies outside the map's key range (|coordinate| < {} m)",
+                       conv.resolution() * geometry::kKeyCenter);
   }
   const auto& q = job.quaternion;
   for (double v : q) {

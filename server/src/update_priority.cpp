@@ -1,5 +1,7 @@
 #include "densemap/server/update_priority.h"
 
+#include <stdexcept>
+
 #include <omp.h>
 #include <pthread.h>
 #include <sys/resource.h>
@@ -106,6 +108,47 @@ void UpdatePriority::watch() {
 std::uint64_t UpdatePriority::promotions() const {
   std::lock_guard lock(mutex_);
   return promotions_;
+}
+
+UpdatePriorityOptions resolveUpdatePriority(int update_nice, int catch_up_ms, int late_nice) {
+  if (update_nice < -1 || update_nice > 19)
+    throw std::invalid_argument("update_nice must be -1 (auto) or 0..19, not " + std::to_string(update_nice));
+  if (catch_up_ms < 0) throw std::invalid_argument("update_catch_up_ms must be >= 0");
+  if (late_nice < -20 || late_nice > 0)
+    throw std::invalid_argument("update_late_nice must be -20..0, not " + std::to_string(late_nice));
+  UpdatePriorityOptions p;
+  p.catch_up = std::chrono::milliseconds(catch_up_ms);
+  const bool can_raise = UpdatePriority::canRaisePriority();
+  p.low_nice = update_nice >= 0 ? update_nice : can_raise ? 19 : 0;
+  if (late_nice < 0) {
+    if (p.low_nice == 0) {
+      spdlog::warn(
+          "--update-late-nice {} has no effect: the update always runs at normal priority (--update-nice "
+          "0, or -1 without the right to raise priorities back)",
+          late_nice);
+    } else if (!UpdatePriority::canRaisePriority(late_nice)) {
+      spdlog::warn(
+          "late scans updated at nice 0, not {}: this process may not go below 0 (root, CAP_SYS_NICE "
+          "or `ulimit -e {}`)",
+          late_nice, 20 - late_nice);
+    } else {
+      p.late_nice = late_nice;
+    }
+  }
+  if (p.low_nice > 0 && can_raise) {
+    spdlog::info("map update at nice {} while scans are on time, nice {} once one is {} ms late", p.low_nice,
+                 p.late_nice, catch_up_ms);
+  } else if (p.low_nice > 0) {
+    spdlog::warn(
+        "map update at nice {}; this process may not raise it back when scans are late (no "
+        "CAP_SYS_NICE, RLIMIT_NICE < 20), so a heavy query load can delay the map",
+        p.low_nice);
+  } else if (update_nice < 0) {
+    spdlog::info(
+        "map update at normal priority: to let queries go first, allow raising priorities back "
+        "(`ulimit -e 20`, CAP_SYS_NICE or root)");
+  }
+  return p;
 }
 
 }  // namespace densemap::server

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,7 +16,9 @@
 #include "densemap/io/lidar_simulator.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
-#include "densemap/server/mapping_server.h"
+#include "densemap/server/dds_edge/dds_edge.h"
+#include "densemap/server/dds_edge/wire.h"
+#include "densemap/server/map_service.h"
 #include "densemap/update/update_engine.h"
 #include "test_simulator.h"
 
@@ -23,26 +26,66 @@ namespace densemap::test {
 
 using namespace std::chrono_literals;
 
-inline server::ServerOptions serverOptions(int domain) {
-  server::ServerOptions o;
+/// The service's options and its DDS edge's, in one struct as densemap-server takes them.
+struct ServerOptions : server::ServiceOptions {
+  msg::DdsOptions dds{};
+  int query_threads = 2;
+  int latency_slice_us = 100;
+  int realtime_priority = 0;
+  double statistics_period_s = 1.0;
+
+  server::dds_edge::DdsEdgeOptions edge() const {
+    server::dds_edge::DdsEdgeOptions e;
+    e.dds = dds;
+    e.query_threads = query_threads;
+    e.latency_slice_us = latency_slice_us;
+    e.realtime_priority = realtime_priority;
+    e.statistics_period_s = statistics_period_s;
+    return e;
+  }
+};
+
+/// A map directory of the test's own (removed first, so nothing from an earlier run is loaded).
+inline std::string testMapDir(int domain) {
+  const auto dir = std::filesystem::temp_directory_path() / ("densemap-test-maps-" + std::to_string(domain));
+  std::filesystem::remove_all(dir);
+  return dir.string();
+}
+
+inline ServerOptions serverOptions(int domain) {
+  ServerOptions o;
   o.dds.domain = domain;
   o.dds.loopback = true;
   o.statistics_period_s = 0.2;
+  o.map_dir = testMapDir(domain);
   return o;
 }
 
+/// densemap-server in this process: the service under its DDS edge.
+struct TestServer {
+  explicit TestServer(const ServerOptions& o) : service(o), edge(service, o.edge()) {}
+  msg::ServerStatistics statistics() { return server::dds_edge::toWire(service.statistics()); }
+  const server::DenseStore* denseStore() { return service.denseStore(); }
+
+  server::MapService service;
+  server::dds_edge::DdsEdge edge;
+};
+
 struct ServiceHarness {
-  explicit ServiceHarness(const server::ServerOptions& options) {
-    server = std::make_unique<server::MappingServer>(options);
+  explicit ServiceHarness(const ServerOptions& options) {
+    server = std::make_unique<TestServer>(options);
     msg::DdsOptions dds = options.dds;
     dds.name = "test-client";
     node = std::make_unique<msg::DdsNode>(dds);
     robot = std::make_unique<client::ScanPublisher>(*node);
     query = std::make_unique<client::QueryClient>(*node, "test-client");
+    admin = std::make_unique<client::AdminClient>(*node, "test-admin");
     EXPECT_TRUE(robot->waitForServer(20s)) << "the robot did not discover the server";
     EXPECT_TRUE(query->waitForServer(20s)) << "the query client did not discover the server";
+    EXPECT_TRUE(admin->waitForServer(20s)) << "the admin client did not discover the server";
   }
   ~ServiceHarness() {
+    admin.reset();
     query.reset();
     robot.reset();
     node.reset();
@@ -62,10 +105,11 @@ struct ServiceHarness {
     return query->call(rq, 30s);
   }
 
-  std::unique_ptr<server::MappingServer> server;
+  std::unique_ptr<TestServer> server;
   std::unique_ptr<msg::DdsNode> node;
   std::unique_ptr<client::ScanPublisher> robot;
   std::unique_ptr<client::QueryClient> query;
+  std::unique_ptr<client::AdminClient> admin;
 };
 
 /// The scan as the server rebuilds it from the message: the pose goes through position + quaternion.

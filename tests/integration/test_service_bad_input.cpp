@@ -2,6 +2,8 @@
 // the map unchanged: after every case the served map still equals the offline map of the accepted scans.
 #include <limits>
 
+#include <filesystem>
+
 #include <gtest/gtest.h>
 
 #include "service_harness.h"
@@ -126,8 +128,6 @@ TEST_F(BadInput, MalformedQueriesGetAnErrorStatusAndTheServerStaysUp) {
   expectStatus(unknown, msg::STATUS_UNKNOWN_KIND, "unknown kind");
   expectStatus(client::boxRequest(msg::QUERY_BOX, {1, 1, 1}, {0, 2, 2}), msg::STATUS_INVALID_ARGUMENT,
                "inverted box");
-  expectStatus(client::boxRequest(msg::QUERY_CLEAR_BOX, {0, 0, 5}, {1, 1, 1}), msg::STATUS_INVALID_ARGUMENT,
-               "inverted clear box");
   msg::QueryRequest ragged;
   ragged.kind(msg::QUERY_POINTS);
   ragged.points({1.f, 2.f});
@@ -136,26 +136,37 @@ TEST_F(BadInput, MalformedQueriesGetAnErrorStatusAndTheServerStaysUp) {
   ray.kind(msg::QUERY_RAY);
   ray.max_range(10);
   expectStatus(ray, msg::STATUS_INVALID_ARGUMENT, "zero ray direction");
-  msg::QueryRequest save;
-  save.kind(msg::QUERY_SAVE);
-  save.path("/tmp/map.txt");
-  expectStatus(save, msg::STATUS_INVALID_ARGUMENT, "save with a wrong extension");
-  save.path("/proc/densemap/map.bt");
-  expectStatus(save, msg::STATUS_FAILED, "save to an unwritable place");
   msg::QueryRequest layer;
   layer.kind(msg::QUERY_STATS);
   layer.layer(static_cast<msg::MapLayer>(7));
   expectStatus(layer, msg::STATUS_INVALID_ARGUMENT, "unknown layer");
+  // Commands, on their own topic, are checked the same way.
+  auto expectRefused = [&](const msg::AdminRequest& rq, msg::QueryStatus want, const char* what) {
+    const auto r = h_->admin->call(rq, 30s);
+    EXPECT_EQ(r.status(), want) << what << ": " << r.message();
+    EXPECT_FALSE(r.message().empty()) << what;
+  };
+  expectRefused(client::clearBoxRequest({0, 0, 5}, {1, 1, 1}), msg::STATUS_INVALID_ARGUMENT,
+                "inverted clear box");
+  expectRefused(client::saveRequest("map.txt"), msg::STATUS_INVALID_ARGUMENT, "save with a wrong extension");
+  expectRefused(client::saveRequest("/etc/densemap-test.bt"), msg::STATUS_INVALID_ARGUMENT, "save to a path");
+  expectRefused(client::saveRequest("../escape.bt"), msg::STATUS_INVALID_ARGUMENT, "save out of the map dir");
+  expectRefused(client::loadRequest("missing.ot"), msg::STATUS_NOT_FOUND, "load of a missing map");
+  msg::AdminRequest unknown_command;
+  unknown_command.kind(static_cast<msg::AdminKind>(42));
+  expectRefused(unknown_command, msg::STATUS_UNKNOWN_KIND, "unknown command");
+  EXPECT_FALSE(std::filesystem::exists("/etc/densemap-test.bt"));
   // Still serving, map untouched.
   expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
-  EXPECT_EQ(h_->server->statistics().queries_failed(), 8u);
+  const auto stats = h_->server->statistics();
+  EXPECT_EQ(stats.queries_failed(), 5u);
+  EXPECT_EQ(stats.commands_failed(), 6u);
 }
 
 TEST_F(BadInput, ClearBoxAndResetChangeOnlyWhatTheyAsk) {
   start(135);
   const auto before = h_->stats().stats();
-  auto clear = client::boxRequest(msg::QUERY_CLEAR_BOX, {-12, -3, -1}, {-8, 3, 3});
-  const auto r = h_->query->call(clear, 30s);
+  const auto r = h_->admin->call(client::clearBoxRequest({-12, -3, -1}, {-8, 3, 3}), 30s);
   ASSERT_EQ(r.status(), msg::STATUS_OK) << r.message();
   auto offline = offlineMap<map::GridMap>(accepted_, 0.2);
   geometry::VoxelKey lo, hi;
@@ -165,9 +176,7 @@ TEST_F(BadInput, ClearBoxAndResetChangeOnlyWhatTheyAsk) {
   EXPECT_GT(erased, 0u);
   EXPECT_EQ(r.cells_changed(), erased);
   expectServedEquals(*h_, *offline);
-  msg::QueryRequest reset;
-  reset.kind(msg::QUERY_RESET);
-  const auto rr = h_->query->call(reset, 30s);
+  const auto rr = h_->admin->call(client::resetRequest(), 30s);
   ASSERT_EQ(rr.status(), msg::STATUS_OK) << rr.message();
   EXPECT_EQ(rr.cells_changed(), before.known_cells() - erased);
   EXPECT_EQ(h_->stats().stats().known_cells(), 0u);

@@ -98,7 +98,7 @@ TEST(ServiceDense, TheDenseStageRunsAtItsNiceValue) {
   auto o = serverOptions(155);
   o.dense.method = "bgk";
   ServiceHarness h(o);
-  ASSERT_EQ(o.dense.nice, 19) << "the default";
+  ASSERT_EQ(o.dense_nice, 19) << "the default";
   ASSERT_TRUE(h.robot->publish("robot-0", 0, simScans(1)[0]));
   for (int w = 0; w < 600 && h.server->denseStore()->version() < 1; ++w) std::this_thread::sleep_for(50ms);
   ASSERT_EQ(h.server->denseStore()->version(), 1u);

@@ -9,7 +9,6 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/msg/dds_options_cli.h"
-#include "densemap/server/mapping_server.h"
 #include "service_harness.h"
 #include "test_simulator.h"
 
@@ -56,7 +55,7 @@ TEST(DdsOptions, UnicastPeersAloneDiscoverTheServer) {
   o.dds.loopback = false;
   o.dds.udp_only = true;
   o.dds.no_multicast = true;
-  server::MappingServer srv(o);
+  test::TestServer srv(o);
   msg::DdsOptions client_dds;
   client_dds.domain = 116;
   client_dds.udp_only = true;

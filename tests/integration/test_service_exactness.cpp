@@ -36,11 +36,8 @@ TEST(ServiceExactness, SimulatorOctreeSavesTheOfflineTreeNodeForNode) {
   const auto offline = offlineMap<map::OctreeMap>(scans, o.map.resolution);
   expectServedEquals(h, *offline);
 
-  const std::string path = (std::filesystem::temp_directory_path() / "densemap_test_111.ot").string();
-  msg::QueryRequest rq;
-  rq.kind(msg::QUERY_SAVE);
-  rq.path(path);
-  const auto r = h.query->call(rq, 60s);
+  const std::string path = (std::filesystem::path(o.map_dir) / "densemap_test_111.ot").string();
+  const auto r = h.admin->call(client::saveRequest("densemap_test_111.ot"), 60s);
   ASSERT_EQ(r.status(), msg::STATUS_OK) << r.message();
   std::unique_ptr<octomap::AbstractOcTree> loaded(octomap::AbstractOcTree::read(path));
   ASSERT_NE(loaded, nullptr) << "could not read " << path;

@@ -107,6 +107,19 @@ void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publ
   }
 }
 
+std::unique_ptr<OccupancyMap> GridMap::clone() const {
+  auto copy = std::make_unique<GridMap>(resolution(), params_);
+  copy->blocks_.reserve(blocks_.size());
+  for (const auto& [id, block] : blocks_) copy->blocks_.emplace(id, std::make_unique<Block>(*block));
+  return copy;
+}
+
+void GridMap::setLogOdds(const VoxelKey& key, float log_odds) {
+  auto& slot = blocks_[blockId(key)];
+  if (!slot) slot = std::make_unique<Block>();
+  slot->value[static_cast<std::size_t>(voxelIndexInBlock(key))] = log_odds;
+}
+
 const GridMap::Block* GridMap::findBlock(const VoxelKey& key) const {
   auto it = blocks_.find(blockId(key));
   return it == blocks_.end() ? nullptr : it->second.get();

@@ -172,6 +172,12 @@ OctreeMap::OctreeMap(double resolution, const OccupancyParams& params)
   configure(*tree_, params);
 }
 
+std::unique_ptr<OccupancyMap> OctreeMap::clone() const {
+  auto copy = std::make_unique<OctreeMap>(resolution(), params_);
+  copy->tree_ = std::make_unique<CountedOcTree>(*tree_);  // OcTree's copy constructor copies node for node
+  return copy;
+}
+
 void OctreeMap::apply(const ScanEvidence& evidence) {
   // Blocks are aligned subtrees: sort blocks by Morton code, then list each block's cells in index order
   // (Morton order within the block), which sorts every cell without a full sort.

@@ -1,58 +1,36 @@
-// Request-reply over DDS: sends QueryRequests with this client's id and waits for the matching reply.
-// Replies for other clients are skipped by their client_id. Safe to call from several threads at once.
+// The two request-reply clients of a densemap server: queries (reads, densemap/query/*) and admin
+// commands (save, load, clear, reset; densemap/admin/*, which a permissions file may withhold).
 #pragma once
 
-#include <chrono>
-#include <cstdint>
-#include <future>
-#include <map>
-#include <mutex>
-#include <stdexcept>
+#include <array>
 #include <string>
 
-#include "densemap/msg/dds_node.h"
+#include "densemap/client/request_client.h"
 #include "densemap/msg/densemap.h"
+#include "densemap/msg/densemapPubSubTypes.h"
 
 namespace densemap::client {
 
-class QueryTimeout : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-class QueryClient {
+class QueryClient : public RequestClient<msg::QueryRequest, msg::QueryReply, msg::QueryRequestPubSubType,
+                                         msg::QueryReplyPubSubType> {
  public:
   QueryClient(msg::DdsNode& node, std::string client_id);
-  ~QueryClient();
-  QueryClient(const QueryClient&) = delete;
-  QueryClient& operator=(const QueryClient&) = delete;
-
-  /// Waits until a server's request reader and reply writer are matched; false on timeout.
-  bool waitForServer(std::chrono::milliseconds timeout);
-
-  /// Sends the request (client_id and request_id are filled in) and returns the reply. Throws QueryTimeout.
-  msg::QueryReply call(msg::QueryRequest request,
-                       std::chrono::milliseconds timeout = std::chrono::seconds(10));
-
-  const std::string& id() const { return id_; }
-
- private:
-  class Listener;
-  void onReplies(eprosima::fastdds::dds::DataReader* reader);
-
-  msg::DdsNode& node_;
-  std::string id_;
-  std::unique_ptr<Listener> listener_;
-  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
-  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
-  std::mutex mutex_;
-  std::uint64_t next_id_ = 1;
-  std::map<std::uint64_t, std::promise<msg::QueryReply>> pending_;
 };
 
-/// A request with the box fields set.
+class AdminClient : public RequestClient<msg::AdminRequest, msg::AdminReply, msg::AdminRequestPubSubType,
+                                         msg::AdminReplyPubSubType> {
+ public:
+  AdminClient(msg::DdsNode& node, std::string client_id);
+};
+
+/// A query with the box fields set.
 msg::QueryRequest boxRequest(msg::QueryKind kind, const std::array<float, 3>& lo,
                              const std::array<float, 3>& hi);
+/// Admin requests.
+msg::AdminRequest saveRequest(const std::string& name);
+msg::AdminRequest loadRequest(const std::string& name);
+msg::AdminRequest clearBoxRequest(const std::array<float, 3>& lo, const std::array<float, 3>& hi);
+msg::AdminRequest resetRequest();
 
 std::string toString(msg::QueryStatus s);
 std::string toString(msg::ScanOutcome o);

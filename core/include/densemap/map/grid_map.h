@@ -36,6 +36,9 @@ class GridMap : public OccupancyMap {
                         const std::function<void(const VoxelKey&, float)>& f) const override;
   std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
   void clear() override { blocks_.clear(); }
+  std::unique_ptr<OccupancyMap> clone() const override;
+  /// Sets one cell's log-odds (loading a saved map; not for scans, which go through apply()).
+  void setLogOdds(const VoxelKey& key, float log_odds);
 
   /// Bitwise comparison of two grids (same known cells, same float bits).
   bool identical(const GridMap& other, std::string* why = nullptr) const;

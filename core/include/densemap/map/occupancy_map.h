@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -67,6 +68,10 @@ class OccupancyMap {
   virtual std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) = 0;
 
   virtual void clear() = 0;
+
+  /// A deep copy with the same cells and sensor model (snapshots: a save writes from the copy while the
+  /// map goes on changing).
+  virtual std::unique_ptr<OccupancyMap> clone() const = 0;
 
   static bool inBox(const VoxelKey& k, const VoxelKey& lo, const VoxelKey& hi) {
     return k[0] >= lo[0] && k[0] <= hi[0] && k[1] >= lo[1] && k[1] <= hi[1] && k[2] >= lo[2] && k[2] <= hi[2];

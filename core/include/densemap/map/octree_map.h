@@ -52,6 +52,7 @@ class OctreeMap : public OccupancyMap {
     return tree_->eraseBox(octomap::OcTreeKey(lo[0], lo[1], lo[2]), octomap::OcTreeKey(hi[0], hi[1], hi[2]));
   }
   void clear() override { tree_->clear(); }
+  std::unique_ptr<OccupancyMap> clone() const override;
 
   octomap::OcTree& tree() { return *tree_; }
   const octomap::OcTree& tree() const { return *tree_; }

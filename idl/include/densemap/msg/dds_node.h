@@ -26,6 +26,8 @@ inline constexpr const char* kScanTopic = "densemap/scans";
 inline constexpr const char* kScanAckTopic = "densemap/scan_acks";
 inline constexpr const char* kQueryRequestTopic = "densemap/query/request";
 inline constexpr const char* kQueryReplyTopic = "densemap/query/reply";
+inline constexpr const char* kAdminRequestTopic = "densemap/admin/request";
+inline constexpr const char* kAdminReplyTopic = "densemap/admin/reply";
 inline constexpr const char* kStatisticsTopic = "densemap/statistics";
 
 /// Profile names in config/dds_profiles.xml.

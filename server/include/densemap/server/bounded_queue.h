@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string_view>
@@ -23,12 +24,13 @@ std::optional<OverflowPolicy> parseOverflowPolicy(std::string_view s);
 template <class T>
 class BoundedQueue {
  public:
-  BoundedQueue(std::size_t capacity, OverflowPolicy policy)
-      : capacity_(capacity == 0 ? 1 : capacity), policy_(policy) {}
+  /// `keep`: items the drop policy never drops (commands among scans); a full queue of them grows.
+  BoundedQueue(std::size_t capacity, OverflowPolicy policy, std::function<bool(const T&)> keep = {})
+      : capacity_(capacity == 0 ? 1 : capacity), policy_(policy), keep_(std::move(keep)) {}
 
-  /// Adds an item. Under kDropOldest a full queue drops its oldest item, which is returned. Under kWait the
-  /// call blocks while the queue is full; once the queue is closed the
-  /// item itself is returned unqueued.
+  /// Adds an item. Under kDropOldest a full queue drops its oldest droppable item, which is returned.
+  /// Under kWait the call blocks while the queue is full; once the queue is closed the item itself is
+  /// returned unqueued.
   std::optional<T> push(T item) {
     std::unique_lock lock(mutex_);
     if (policy_ == OverflowPolicy::kWait) {
@@ -37,8 +39,12 @@ class BoundedQueue {
     if (closed_) return item;
     std::optional<T> dropped;
     if (items_.size() >= capacity_) {
-      dropped = std::move(items_.front());
-      items_.pop_front();
+      for (auto it = items_.begin(); it != items_.end(); ++it) {
+        if (keep_ && keep_(*it)) continue;
+        dropped = std::move(*it);
+        items_.erase(it);
+        break;
+      }
     }
     items_.push_back(std::move(item));
     lock.unlock();
@@ -95,6 +101,7 @@ class BoundedQueue {
 
   const std::size_t capacity_;
   const OverflowPolicy policy_;
+  const std::function<bool(const T&)> keep_;
   mutable std::mutex mutex_;
   std::condition_variable not_full_, not_empty_;
   std::deque<T> items_;

@@ -1,8 +1,9 @@
 // The exact map update as a pipeline stage: the core's UpdateEngine (super rays + culling region by
-// default) writing into the MapStore under its exclusive lock only for the final apply.
+// default) writing into the MapStore under its exclusive lock only for the final apply. It is the exact
+// map's only writer: commands (clear box, reset, load, a save's snapshot) run here too, between scans.
 #pragma once
 
-#include "densemap/server/map_store.h"
+#include "densemap/server/map_stores.h"
 #include "densemap/server/pipeline_stage.h"
 #include "densemap/server/update_priority.h"
 #include "densemap/update/update_engine.h"
@@ -19,7 +20,7 @@ class OccupancyStage : public PipelineStage {
   std::string name() const override { return "occupancy"; }
   StageResult process(ScanJob& job) override;
   bool commitsToMap() const override { return true; }
-  void idle() override { store_.runCommands(); }
+  void applyChange(MapChange& change) override;
 
  private:
   MapStore& store_;

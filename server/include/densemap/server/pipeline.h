@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -32,8 +33,6 @@ struct PipelineOptions {
   std::size_t max_robots = 256;
 };
 
-enum class ScanOutcome { kInMap, kRejected, kDropped };
-
 struct RobotCounters {
   std::uint64_t received = 0;
   std::uint64_t processed = 0;  ///< in the map
@@ -55,21 +54,24 @@ struct StageCounters {
 
 class Pipeline {
  public:
-  /// Called once per scan with its outcome (on a pipeline thread, or the submitting thread for drops and
-  /// rejections at the door); `why` explains rejections and drops.
-  using OutcomeListener =
-      std::function<void(const ScanJob& job, ScanOutcome outcome, const std::string& why)>;
+  /// Called once per scan with its outcome (besides the scan's own on_outcome), on a pipeline thread or
+  /// the submitting thread for drops and rejections at the door; `why` explains rejections and drops.
+  using OutcomeListener = OutcomeCallback;
 
   Pipeline(PipelineOptions options, std::vector<std::unique_ptr<PipelineStage>> stages,
-           OutcomeListener listener);
+           OutcomeListener listener = {});
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
 
-  /// Queues a scan (validated by the caller). May block under the wait policy; returns false after stop().
-  bool submit(ScanJob job);
+  /// Queues a scan (validated by the caller). May block under the wait policy; returns false after stop()
+  /// (and leaves `job` as it was).
+  bool submit(ScanJob&& job);
   /// Counts a scan rejected before it entered the pipeline (bad input) and reports it to the listener.
   void rejectAtDoor(const ScanJob& job, const std::string& why);
+  /// Queues a command ahead of the robots' waiting scans (after the scans already in a stage); every stage
+  /// applies it in turn and the last completes `change->done`. False after stop().
+  bool submitChange(std::shared_ptr<MapChange> change);
 
   /// Stops accepting scans; with `drain`, every queued scan is processed first, else queued scans are
   /// dropped (counted). Joins the workers. Idempotent.
@@ -89,7 +91,8 @@ class Pipeline {
   };
   struct Stage {
     Stage(std::unique_ptr<PipelineStage> s, std::size_t capacity)
-        : impl(std::move(s)), input(capacity, impl->inputPolicy()) {}
+        : impl(std::move(s)),
+          input(capacity, impl->inputPolicy(), [](const ScanJob& j) { return j.change != nullptr; }) {}
     std::unique_ptr<PipelineStage> impl;
     BoundedQueue<ScanJob> input;
     std::atomic<std::uint64_t> processed{0}, dropped{0};
@@ -109,6 +112,7 @@ class Pipeline {
   std::map<std::string, std::unique_ptr<Robot>> robots_;
   std::vector<Robot*> order_;  // round-robin order
   std::size_t next_robot_ = 0;
+  std::deque<std::shared_ptr<MapChange>> changes_;  // guarded by robots_mutex_
   std::mutex arrival_mutex_;
   std::condition_variable arrival_;
   std::atomic<bool> accepting_{true}, draining_{true}, stopped_{false};

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "densemap/server/bounded_queue.h"
+#include "densemap/server/map_change.h"
 #include "densemap/server/scan_job.h"
 
 namespace densemap::server {
@@ -23,10 +24,9 @@ class PipelineStage {
   virtual StageResult process(ScanJob& job) = 0;
   /// True for the stage after which a scan counts as "in the map" (acknowledged, latency measured).
   virtual bool commitsToMap() const { return false; }
-  /// Called between scans on the stage's thread (e.g. to run queued map commands).
-  virtual void idle() {}
-  /// Wakes the stage's thread for idle() work (set by the pipeline).
-  virtual bool hasIdleWork() const { return false; }
+  /// Applies this stage's part of a command (on the stage's thread, between two scans). A stage that
+  /// fails it sets change.result.status; later stages still see it.
+  virtual void applyChange(MapChange& change) { (void)change; }
   /// How the stage's input queue behaves when the stage falls behind. A stage that may lag (a dense layer)
   /// drops the oldest scans; the exact map waits so that it never misses a scan.
   virtual OverflowPolicy inputPolicy() const { return OverflowPolicy::kWait; }

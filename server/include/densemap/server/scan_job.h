@@ -1,14 +1,26 @@
-// A scan on its way through the server's pipeline, in core types (the DDS edge converts once).
+// A scan on its way through the server's pipeline, in core types (each edge converts once).
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 
 #include "densemap/io/scan.h"
 
 namespace densemap::server {
 
+struct MapChange;
+struct ScanJob;
+
+enum class ScanOutcome { kInMap, kRejected, kDropped };
+
+/// Hears a scan's final outcome once (on a pipeline thread, or the submitting one for rejections at the
+/// door); `why` explains rejections and drops. It must not block: the edges queue their acknowledgements.
+using OutcomeCallback = std::function<void(const ScanJob& job, ScanOutcome outcome, const std::string& why)>;
+
+/// A scan (or, when `change` is set, a command in the scans' order) on its way through the pipeline.
 struct ScanJob {
   std::string robot_id;
   std::uint64_t seq = 0;
@@ -22,6 +34,8 @@ struct ScanJob {
   std::uint32_t points_rejected = 0;  ///< non-finite or out-of-key-range points removed
   std::uint64_t map_version = 0;      ///< map version once the scan is in the map
   std::int64_t in_map_ns = 0;         ///< when the scan was in the map (system clock)
+  std::shared_ptr<MapChange> change;  ///< set: this job is a command, not a scan
+  OutcomeCallback on_outcome;         ///< the submitting edge's, called once with the outcome
 };
 
 }  // namespace densemap::server

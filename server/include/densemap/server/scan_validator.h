@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 
+#include "densemap/geometry/voxel_key.h"
 #include "densemap/server/scan_job.h"
 
 namespace densemap::server {
@@ -17,7 +18,8 @@ struct ScanLimits {
 };
 
 /// Empty when the scan may be mapped (after removing non-finite points, counted in job.points_rejected, and
-/// setting job.scan.pose from the checked pose); else why it is rejected.
-std::string validateScan(ScanJob& job, const ScanLimits& limits);
+/// setting job.scan.pose from the checked pose); else why it is rejected. The one place a scan is checked
+/// (the edges only convert); `conv` is the map's, whose key range the sensor must lie in.
+std::string validateScan(ScanJob& job, const ScanLimits& limits, const geometry::KeyConverter& conv);
 
 }  // namespace densemap::server

@@ -24,6 +24,10 @@ struct UpdatePriorityOptions {
   int late_nice = 0;
 };
 
+/// The priority policy for the configured values (update_nice -1: 19 if this process may raise it back,
+/// else 0), saying in the log what it chose and why. Throws std::invalid_argument for values out of range.
+UpdatePriorityOptions resolveUpdatePriority(int update_nice, int catch_up_ms, int late_nice);
+
 /// Thread ids of the calling thread and its OpenMP team (libgomp keeps one persistent team per thread that
 /// starts parallel regions, and its threads take their nice value only at creation, so a priority is set
 /// on each).

@@ -6,19 +6,21 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 #include "densemap/msg/dds_options_cli.h"
-#include "densemap/server/mapping_server.h"
+#include "densemap/server/dds_edge/dds_edge.h"
+#include "densemap/server/map_service.h"
 #include "densemap/util/retain_freed_memory.h"
 
 using namespace densemap;
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-server: builds an occupancy map from LiDAR scans on DDS and answers queries"};
-  server::ServerOptions o;
+  server::ServiceOptions o;
+  server::dds_edge::DdsEdgeOptions e;
   std::string method = "superrays+culling", semantics = "batch", overflow = "wait", log_level = "info";
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
-  msg::addDdsOptions(app, o.dds);
+  msg::addDdsOptions(app, e.dds);
   app.add_option("--server-id", o.server_id, "name in statistics and logs")->capture_default_str();
   app.add_option("--backend", o.map.backend, "map backend: grid or octree")
       ->capture_default_str()
@@ -57,7 +59,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dense-max-range", o.dense.max_range, "dense layer: cut rays here (metres; <0: unlimited)")
       ->capture_default_str();
-  app.add_option("--dense-nice", o.dense.nice,
+  app.add_option("--dense-nice", o.dense_nice,
                  "nice value of the dense layer's threads (0-19); it drops scans rather than fall behind")
       ->capture_default_str()
       ->check(CLI::Range(0, 19));
@@ -88,7 +90,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-robots", o.pipeline.max_robots, "robots served at most")->capture_default_str();
   app.add_option("--max-points", o.limits.max_points, "scans with more points are rejected")
       ->capture_default_str();
-  app.add_option("--query-threads", o.query_threads, "threads answering queries")
+  app.add_option("--query-threads", e.query_threads, "threads answering queries")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   app.add_option("--update-threads", o.update_threads, "threads of the map update (0 = all cores)")
@@ -107,18 +109,21 @@ int main(int argc, char** argv) {
                  "flood of queries, at their cost; needs root, CAP_SYS_NICE or RLIMIT_NICE")
       ->capture_default_str()
       ->check(CLI::Range(-20, 0));
-  app.add_option("--latency-slice-us", o.latency_slice_us,
+  app.add_option("--latency-slice-us", e.latency_slice_us,
                  "scheduler slice of the DDS and query threads in microseconds (Linux >= 6.12; 0: the "
                  "kernel's default)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--realtime-priority", o.realtime_priority,
+  app.add_option("--realtime-priority", e.realtime_priority,
                  "SCHED_FIFO priority (1-99) of the DDS and query threads, so the map update never delays "
                  "a query's answer (needs root, CAP_SYS_NICE or `ulimit -r`); 0: normal scheduling")
       ->capture_default_str()
       ->check(CLI::Range(0, 99));
-  app.add_option("--statistics-period", o.statistics_period_s, "seconds between statistics messages (0: off)")
+  app.add_option("--statistics-period", e.statistics_period_s, "seconds between statistics messages (0: off)")
       ->capture_default_str();
+  app.add_option("--data-dir", o.data_dir, "the service's data directory (saved maps go to DATA_DIR/maps)")
+      ->capture_default_str();
+  app.add_option("--map-dir", o.map_dir, "where save and load requests read and write (default DATA_DIR/maps)");
   app.add_option("--save-on-exit", o.save_on_exit, "save the map here (.bt/.ot) when shutting down");
   app.add_flag("!--drop-on-exit", o.drain_on_exit,
                "on shutdown drop queued scans (counted) instead of mapping them");
@@ -139,17 +144,16 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   try {
-    server::MappingServer server(o);
+    server::MapService service(o);
+    server::dds_edge::DdsEdge edge(service, e);
     int sig = 0;
     sigwait(&signals, &sig);
     spdlog::info("received {}", sig == SIGINT ? "SIGINT" : "SIGTERM");
-    server.stop();
-    const auto s = server.statistics();
-    for (const auto& r : s.robots()) {
-      std::printf(
-          "robot %-16s received %llu, in map %llu, dropped %llu, rejected %llu\n", r.robot_id().c_str(),
-          static_cast<unsigned long long>(r.received()), static_cast<unsigned long long>(r.processed()),
-          static_cast<unsigned long long>(r.dropped()), static_cast<unsigned long long>(r.rejected()));
+    edge.stop();
+    for (const auto& [id, r] : service.statistics().robots) {
+      std::printf("robot %-16s received %llu, in map %llu, dropped %llu, rejected %llu\n", id.c_str(),
+                  static_cast<unsigned long long>(r.received), static_cast<unsigned long long>(r.processed),
+                  static_cast<unsigned long long>(r.dropped), static_cast<unsigned long long>(r.rejected));
     }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

@@ -1,4 +1,4 @@
-#include "common/cli_common.h"
+#include "densemap/cli/cli_common.h"
 
 #include <omp.h>
 #include <unistd.h>

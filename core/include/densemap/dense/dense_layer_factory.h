@@ -1,0 +1,31 @@
+// The one place that turns a dense-layer name (Ch. 3: AKIMap, or the BGK baseline) into a layer.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "densemap/dense/kernel_layer.h"
+
+namespace densemap::dense {
+
+struct DenseLayerOptions {
+  std::string method = "none";  ///< "none", "akimap" or "bgk"
+  double resolution = 0.0;      ///< cell size; 0: the caller's default (the map's resolution)
+  double free_sample_distance = 0.5;
+  /// One free sample per voxel of this size (0: the resolution). 0.3 keeps a 64-beam LiDAR at ~226 ms per
+  /// scan at 0.2 m (docs/BENCHMARKS.md).
+  double free_voxel_size = 0.3;
+  double max_range = 30.0;  ///< rays are cut here for the dense layer (metres; < 0: unlimited)
+  std::uint64_t seed = 1;   ///< free-sample generator
+  /// AKIMap: lower bound of every sample's search radius (0: the dissertation's schedule).
+  double min_search_radius = 0.0;
+  /// AKIMap extensions (dense/adaptive_kernel_layer.h): isotropic free kernels, occupied radius floor.
+  bool isotropic_free_kernels = false;
+  double min_occupied_search_radius = 0.0;
+};
+
+/// Null for "none"; throws std::invalid_argument for an unknown method. `default_resolution` is used
+/// when options.resolution is 0.
+std::unique_ptr<KernelLayer> makeDenseLayer(const DenseLayerOptions& options, double default_resolution);
+
+}  // namespace densemap::dense

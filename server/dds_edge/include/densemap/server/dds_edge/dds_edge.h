@@ -1,0 +1,86 @@
+// densemap's DDS edge: takes scans from densemap/scans into the MapService, answers queries on
+// densemap/query/* and commands on densemap/admin/*, acknowledges every scan and publishes statistics.
+// Its threads: DDS's own (cheap queries are answered there), scan intake, query workers, one admin
+// worker (commands run one at a time, in arrival order), acknowledgements, statistics.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "densemap/msg/dds_node.h"
+#include "densemap/msg/densemap.h"
+#include "densemap/server/map_service.h"
+
+namespace densemap::server::dds_edge {
+
+struct DdsEdgeOptions {
+  msg::DdsOptions dds{};
+  /// Threads answering queries concurrently with the map update.
+  int query_threads = 2;
+  /// Scheduler time slice in microseconds asked for the DDS, query and other latency-bound threads (Linux
+  /// >= 6.12 honours it; 0 = the kernel's default). The pipeline's stages keep the default.
+  int latency_slice_us = 100;
+  /// SCHED_FIFO priority (1..99) of the DDS receive threads (which answer point and ray queries) and the
+  /// query threads; 0 = normal scheduling (README "Latency"). Needs root, CAP_SYS_NICE or RLIMIT_RTPRIO.
+  int realtime_priority = 0;
+  /// Seconds between statistics messages (and log lines); 0 disables them.
+  double statistics_period_s = 1.0;
+};
+
+class DdsEdge {
+ public:
+  /// Creates the DDS entities and starts serving `service` (which must outlive the edge). Throws
+  /// msg::DdsError or std::invalid_argument (with a message saying which option is wrong).
+  DdsEdge(MapService& service, const DdsEdgeOptions& options);
+  ~DdsEdge();
+  DdsEdge(const DdsEdge&) = delete;
+  DdsEdge& operator=(const DdsEdge&) = delete;
+
+  /// Clean shutdown: stop taking scans, stop the service (draining or dropping its queues as it is
+  /// configured, acknowledging each scan), publish the last statistics, stop answering. Idempotent.
+  void stop();
+
+  MapService& service() { return service_; }
+
+ private:
+  class Listener;
+  void ingestLoop();
+  void takeQueries();
+  void queryLoop();
+  void takeCommands();
+  void adminLoop();
+  void ackLoop();
+  void statisticsLoop();
+  void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
+
+  MapService& service_;
+  DdsEdgeOptions options_;
+  std::unique_ptr<Listener> listener_;
+  std::unique_ptr<msg::DdsNode> node_;
+  eprosima::fastdds::dds::DataReader* scan_reader_ = nullptr;
+  eprosima::fastdds::dds::DataReader* query_reader_ = nullptr;
+  eprosima::fastdds::dds::DataReader* admin_reader_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* ack_writer_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* reply_writer_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* admin_reply_writer_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* stats_writer_ = nullptr;
+
+  std::mutex wake_mutex_;
+  std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;
+  std::atomic<bool> running_{true};
+  bool workers_running_ = true;                  // query, admin and ack threads; guarded by wake_mutex_
+  std::deque<msg::QueryRequest> query_backlog_;  // guarded by wake_mutex_
+  std::deque<msg::AdminRequest> admin_backlog_;  // guarded by wake_mutex_
+  std::deque<msg::ScanAck> ack_backlog_;         // guarded by wake_mutex_
+  std::thread ingest_thread_, admin_thread_, ack_thread_, stats_thread_;
+  std::vector<std::thread> query_threads_;
+  std::mutex stop_mutex_;
+  bool stopped_ = false;
+};
+
+}  // namespace densemap::server::dds_edge

@@ -1,0 +1,36 @@
+// Every conversion between densemap's DDS messages (idl/densemap.idl) and the service's own types, in
+// one place: the only code in server/ that sees generated types, besides the DDS edge that calls it.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <variant>
+
+#include "densemap/msg/densemap.h"
+#include "densemap/server/command.h"
+#include "densemap/server/pipeline.h"
+#include "densemap/server/query.h"
+#include "densemap/server/scan_job.h"
+#include "densemap/server/service_statistics.h"
+
+namespace densemap::server::dds_edge {
+
+/// The scan as the service takes it. An empty `why` when the message is well formed as a message
+/// (points packed x y z); what the scan holds is checked by the service (validateScan).
+ScanJob toScanJob(const msg::Scan& m, std::string& why);
+msg::ScanAck toAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
+
+/// The query a request asks, or the answer to a request that cannot be one (unknown kind or layer,
+/// points not packed x y z).
+std::variant<Query, Answer> toQuery(const msg::QueryRequest& rq);
+msg::QueryReply toReply(const msg::QueryRequest& rq, const Answer& answer);
+
+/// The command a request asks, or its result when it cannot be one. ADMIN_PING gives std::monostate.
+std::variant<std::monostate, Command, CommandResult> toCommand(const msg::AdminRequest& rq);
+msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& result);
+
+msg::QueryStatus toWire(Status s);
+msg::MapStatistics toWire(const MapSummary& s);
+msg::ServerStatistics toWire(const ServiceStatistics& s);
+
+}  // namespace densemap::server::dds_edge

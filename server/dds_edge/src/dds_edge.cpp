@@ -1,0 +1,308 @@
+#include "densemap/server/dds_edge/dds_edge.h"
+
+#include <pthread.h>
+
+#include <spdlog/spdlog.h>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+
+#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/server/dds_edge/wire.h"
+#include "densemap/util/realtime_priority.h"
+#include "densemap/util/scheduler_slice.h"
+
+namespace densemap::server::dds_edge {
+
+namespace fdds = eprosima::fastdds::dds;
+using namespace std::chrono_literals;
+
+class DdsEdge::Listener : public fdds::DataReaderListener {
+ public:
+  explicit Listener(DdsEdge& e) : e_(e) {}
+  // Readers are told apart by identity: the listener is attached only once every reader exists.
+  void on_data_available(fdds::DataReader* reader) override {
+    if (reader == e_.scan_reader_) {
+      e_.scans_ready_.notify_one();
+    } else if (reader == e_.query_reader_) {
+      e_.takeQueries();
+    } else if (reader == e_.admin_reader_) {
+      e_.takeCommands();
+    }
+  }
+  void on_subscription_matched(fdds::DataReader* reader,
+                               const fdds::SubscriptionMatchedStatus& info) override {
+    spdlog::debug("{}: {} writer(s) matched", reader->get_topicdescription()->get_name(), info.current_count);
+  }
+
+ private:
+  DdsEdge& e_;
+};
+
+DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(service), options_(options) {
+  // Threads created from here on (DDS's receive threads, the query threads) inherit the short slice; the
+  // scan intake sets the default back for itself (the pipeline's threads were created before).
+  if (options_.latency_slice_us < 0) throw std::invalid_argument("latency_slice_us must be >= 0");
+  util::requestSchedulerSlice(std::chrono::microseconds(options_.latency_slice_us));
+  listener_ = std::make_unique<Listener>(*this);
+  // Real-time from here to the end: DDS's threads (they answer point and ray queries) and the query threads
+  // inherit it; the intake, admin, ack and statistics threads drop it, and so does this thread at the end.
+  if (options_.realtime_priority < 0 || options_.realtime_priority > 99)
+    throw std::invalid_argument("realtime_priority must be 0..99");
+  const bool realtime =
+      options_.realtime_priority > 0 && util::setRealtimePriority(options_.realtime_priority);
+  if (options_.realtime_priority > 0 && !realtime) {
+    spdlog::warn(
+        "--realtime-priority {}: this process may not use SCHED_FIFO; DDS and query threads run at "
+        "normal priority. To allow it: {}",
+        options_.realtime_priority, util::realtimePriorityHint());
+  } else if (realtime) {
+    spdlog::info("DDS and query threads at SCHED_FIFO priority {}", options_.realtime_priority);
+  }
+  try {
+    msg::DdsOptions dds = options_.dds;
+    dds.name = service_.options().server_id;
+    node_ = std::make_unique<msg::DdsNode>(dds);
+    auto* scans = node_->topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
+    auto* acks = node_->topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
+    auto* requests = node_->topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
+    auto* replies = node_->topic(msg::kQueryReplyTopic, msg::typeSupport<msg::QueryReplyPubSubType>());
+    auto* admin_requests =
+        node_->topic(msg::kAdminRequestTopic, msg::typeSupport<msg::AdminRequestPubSubType>());
+    auto* admin_replies = node_->topic(msg::kAdminReplyTopic, msg::typeSupport<msg::AdminReplyPubSubType>());
+    auto* stats = node_->topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
+    ack_writer_ = node_->writer(acks, msg::kMessageWriterProfile);
+    reply_writer_ = node_->writer(replies, msg::kMessageWriterProfile);
+    admin_reply_writer_ = node_->writer(admin_replies, msg::kMessageWriterProfile);
+    stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
+    scan_reader_ = node_->reader(scans, msg::kScanReaderProfile, nullptr);
+    query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, nullptr);
+    admin_reader_ = node_->reader(admin_requests, msg::kMessageReaderProfile, nullptr);
+    for (auto* r : {scan_reader_, query_reader_, admin_reader_}) r->set_listener(listener_.get());
+  } catch (...) {
+    util::setRealtimePriority(0);
+    throw;
+  }
+  ingest_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-ingest");
+    util::useBulkScheduling();  // taking and converting scans is bulk work
+    ingestLoop();
+  });
+  for (int i = 0; i < std::max(1, options_.query_threads); ++i)
+    query_threads_.emplace_back([this] {
+      pthread_setname_np(pthread_self(), "dm-query");
+      queryLoop();
+    });
+  admin_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-admin");
+    util::useBulkScheduling();
+    adminLoop();
+  });
+  ack_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-acks");
+    util::useBulkScheduling();
+    ackLoop();
+  });
+  stats_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-statistics");
+    util::useBulkScheduling();
+    statisticsLoop();
+  });
+  if (realtime) util::setRealtimePriority(0);
+  // Requests that arrived before the listener was attached.
+  takeQueries();
+  takeCommands();
+  const ServiceOptions& so = service_.options();
+  spdlog::info("{} serving on DDS domain {} ({}): {} map at {} m, method {}, overflow policy {}",
+               so.server_id, options_.dds.domain, options_.dds.loopback ? "loopback" : "all interfaces",
+               so.map.backend, so.map.resolution, update::toString(so.update.method),
+               toString(so.pipeline.overflow));
+}
+
+DdsEdge::~DdsEdge() { stop(); }
+
+void DdsEdge::queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why) {
+  // On a pipeline thread: only queue (the ack thread writes), so DDS never holds up the map's writer.
+  msg::ScanAck ack = toAck(job, outcome, why);
+  {
+    std::lock_guard lock(wake_mutex_);
+    ack_backlog_.push_back(std::move(ack));
+  }
+  acks_ready_.notify_one();
+}
+
+void DdsEdge::ingestLoop() {
+  msg::Scan m;
+  fdds::SampleInfo info;
+  auto ack = [this](const ScanJob& j, ScanOutcome o, const std::string& why) { queueAck(j, o, why); };
+  while (running_) {
+    if (scan_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      std::string why;
+      ScanJob job = toScanJob(m, why);
+      job.received_ns = msg::nowNs();
+      // Rejections are acknowledged through `ack` like every other outcome.
+      if (why.empty()) {
+        service_.submit(std::move(job), ack);
+      } else {
+        service_.refuse(job, why, ack);  // malformed as a message
+      }
+      continue;
+    }
+    std::unique_lock lock(wake_mutex_);
+    scans_ready_.wait_for(lock, 20ms);
+  }
+}
+
+void DdsEdge::takeQueries() {
+  msg::QueryRequest rq;
+  fdds::SampleInfo info;
+  while (query_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
+    if (!info.valid_data) continue;
+    auto decoded = toQuery(rq);
+    if (auto* q = std::get_if<Query>(&decoded); q != nullptr && answerInline(*q)) {
+      msg::QueryReply rp = toReply(rq, service_.answer(*q));
+      if (rp.status() != msg::STATUS_OK)
+        spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), rp.message());
+      reply_writer_->write(&rp);
+      continue;
+    }
+    {
+      std::lock_guard lock(wake_mutex_);
+      query_backlog_.push_back(std::move(rq));
+    }
+    queries_ready_.notify_one();
+    rq = msg::QueryRequest();
+  }
+}
+
+void DdsEdge::queryLoop() {
+  for (;;) {
+    msg::QueryRequest rq;
+    {
+      std::unique_lock lock(wake_mutex_);
+      queries_ready_.wait(lock, [&] { return !query_backlog_.empty() || !workers_running_; });
+      if (query_backlog_.empty()) return;
+      rq = std::move(query_backlog_.front());
+      query_backlog_.pop_front();
+    }
+    auto decoded = toQuery(rq);
+    if (!std::holds_alternative<Query>(decoded)) service_.countRefusedQuery();
+    const Answer a = std::holds_alternative<Query>(decoded) ? service_.answer(std::get<Query>(decoded))
+                                                            : std::get<Answer>(decoded);
+    if (a.status != Status::kOk)
+      spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), a.message);
+    msg::QueryReply rp = toReply(rq, a);
+    reply_writer_->write(&rp);
+  }
+}
+
+void DdsEdge::takeCommands() {
+  msg::AdminRequest rq;
+  fdds::SampleInfo info;
+  bool any = false;
+  {
+    std::lock_guard lock(wake_mutex_);
+    while (admin_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      admin_backlog_.push_back(std::move(rq));
+      rq = msg::AdminRequest();
+      any = true;
+    }
+  }
+  if (any) commands_ready_.notify_one();
+}
+
+void DdsEdge::adminLoop() {
+  for (;;) {
+    msg::AdminRequest rq;
+    {
+      std::unique_lock lock(wake_mutex_);
+      commands_ready_.wait(lock, [&] { return !admin_backlog_.empty() || !workers_running_; });
+      if (admin_backlog_.empty()) return;
+      rq = std::move(admin_backlog_.front());
+      admin_backlog_.pop_front();
+    }
+    auto decoded = toCommand(rq);
+    CommandResult r;
+    if (const auto* c = std::get_if<Command>(&decoded)) {
+      r = service_.execute(*c, rq.client_id());
+    } else if (const auto* refused = std::get_if<CommandResult>(&decoded)) {
+      r = *refused;
+      service_.countRefusedCommand();
+      spdlog::warn("command {}#{} refused: {}", rq.client_id(), rq.request_id(), r.message);
+    } else {
+      r.message = "pong";  // ADMIN_PING
+    }
+    msg::AdminReply rp = toReply(rq, r);
+    admin_reply_writer_->write(&rp);
+  }
+}
+
+void DdsEdge::ackLoop() {
+  for (;;) {
+    std::deque<msg::ScanAck> batch;
+    {
+      std::unique_lock lock(wake_mutex_);
+      acks_ready_.wait(lock, [&] { return !ack_backlog_.empty() || !workers_running_; });
+      if (ack_backlog_.empty()) return;
+      batch.swap(ack_backlog_);
+    }
+    for (msg::ScanAck& a : batch) ack_writer_->write(&a);
+  }
+}
+
+void DdsEdge::statisticsLoop() {
+  if (options_.statistics_period_s <= 0) return;
+  const auto period = std::chrono::duration<double>(options_.statistics_period_s);
+  auto next = std::chrono::steady_clock::now();
+  std::uint64_t last_logged = ~0ull;
+  while (running_) {
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    {
+      std::unique_lock lock(wake_mutex_);
+      stats_wake_.wait_until(lock, next, [&] { return !running_.load(); });
+    }
+    if (!running_) break;
+    const ServiceStatistics s = service_.statistics();
+    msg::ServerStatistics m = toWire(s);
+    stats_writer_->write(&m);
+    const RobotCounters t = s.totals();
+    const std::uint64_t activity = t.processed + t.rejected + t.dropped + s.queries_answered +
+                                   s.queries_failed + s.commands_done + s.commands_failed;
+    if (activity != last_logged) {  // log while something happens, stay quiet when idle
+      spdlog::info("{}", s.summaryLine());
+      last_logged = activity;
+    }
+  }
+}
+
+void DdsEdge::stop() {
+  std::lock_guard lock(stop_mutex_);
+  if (stopped_) return;
+  stopped_ = true;
+  running_ = false;
+  scans_ready_.notify_all();
+  stats_wake_.notify_all();
+  if (ingest_thread_.joinable()) ingest_thread_.join();
+  service_.stop();  // drains or drops the queued scans; their acknowledgements are queued
+  if (stats_thread_.joinable()) stats_thread_.join();
+  if (stats_writer_ != nullptr) {
+    msg::ServerStatistics m = toWire(service_.statistics());
+    stats_writer_->write(&m);
+  }
+  {
+    std::lock_guard wake(wake_mutex_);
+    workers_running_ = false;  // the threads finish their backlogs first
+  }
+  queries_ready_.notify_all();
+  commands_ready_.notify_all();
+  acks_ready_.notify_all();
+  for (auto& t : query_threads_) {
+    if (t.joinable()) t.join();
+  }
+  if (admin_thread_.joinable()) admin_thread_.join();
+  if (ack_thread_.joinable()) ack_thread_.join();
+  node_->close();
+}
+
+}  // namespace densemap::server::dds_edge

@@ -1,0 +1,249 @@
+#include "densemap/server/dds_edge/wire.h"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "densemap/util/wall_clock.h"
+
+namespace densemap::server::dds_edge {
+
+namespace {
+
+Vec3f vec(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
+std::array<float, 3> arr(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
+
+std::optional<Layer> layerOf(msg::MapLayer l) {
+  switch (l) {
+    case msg::LAYER_OCCUPANCY:
+      return Layer::kOccupancy;
+    case msg::LAYER_DENSE:
+      return Layer::kDense;
+    case msg::LAYER_FUSED:
+      return Layer::kFused;
+  }
+  return std::nullopt;
+}
+
+Answer failure(Status s, std::string why) {
+  Answer a;
+  a.status = s;
+  a.message = std::move(why);
+  return a;
+}
+
+}  // namespace
+
+ScanJob toScanJob(const msg::Scan& m, std::string& why) {
+  ScanJob job;
+  job.robot_id = m.robot_id();
+  job.seq = m.seq();
+  job.publish_ns = m.publish_ns();
+  job.position = {m.sensor_pose().px(), m.sensor_pose().py(), m.sensor_pose().pz()};
+  job.quaternion = {m.sensor_pose().qw(), m.sensor_pose().qx(), m.sensor_pose().qy(), m.sensor_pose().qz()};
+  job.scan.index = m.seq();
+  const std::string& frame = m.frame_id();
+  job.scan.frame = (frame == "world" || frame == "map") ? io::PointFrame::kWorld : io::PointFrame::kSensor;
+  const auto& xyz = m.points();
+  if (xyz.size() % 3 != 0) {
+    why = "points must be packed x y z (got a length not divisible by 3)";
+  } else {
+    job.scan.points.resize(xyz.size() / 3);
+    for (std::size_t i = 0; i < job.scan.points.size(); ++i)
+      job.scan.points[i] = geometry::Vec3f(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  }
+  const auto& g = m.lidar();
+  if (g.rows() > 0 && g.columns() > 0) {
+    job.scan.lidar =
+        io::LidarGeometry{g.rows(), g.columns(), g.fov_up_deg(), g.fov_down_deg(), g.fov_horizontal_deg()};
+  }
+  return job;
+}
+
+msg::ScanAck toAck(const ScanJob& job, ScanOutcome outcome, const std::string& why) {
+  msg::ScanAck ack;
+  ack.robot_id(job.robot_id);
+  ack.seq(job.seq);
+  ack.outcome(outcome == ScanOutcome::kInMap     ? msg::SCAN_APPLIED
+              : outcome == ScanOutcome::kDropped ? msg::SCAN_DROPPED
+                                                 : msg::SCAN_REJECTED);
+  ack.message(why);
+  ack.publish_ns(job.publish_ns);
+  ack.done_ns(outcome == ScanOutcome::kInMap ? job.in_map_ns : util::wallClockNs());
+  const auto n = static_cast<std::uint32_t>(job.scan.points.size());
+  ack.points_used(n - std::min(job.points_rejected, n));
+  ack.points_rejected(job.points_rejected);
+  ack.map_version(job.map_version);
+  return ack;
+}
+
+std::variant<Query, Answer> toQuery(const msg::QueryRequest& rq) {
+  const auto layer = layerOf(rq.layer());
+  if (!layer)
+    return failure(Status::kInvalidArgument, fmt::format("unknown layer {} (occupancy 0, dense 1, fused 2)",
+                                                         static_cast<unsigned>(rq.layer())));
+  switch (rq.kind()) {
+    case msg::QUERY_POINTS: {
+      const auto& xyz = rq.points();
+      if (xyz.size() % 3 != 0)
+        return failure(Status::kInvalidArgument, "points must be packed x y z (a multiple of 3 floats)");
+      PointsQuery q;
+      q.layer = *layer;
+      q.points.resize(xyz.size() / 3);
+      for (std::size_t i = 0; i < q.points.size(); ++i)
+        q.points[i] = Vec3f(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+      return q;
+    }
+    case msg::QUERY_BOX:
+      return BoxQuery{vec(rq.box_min()), vec(rq.box_max()), rq.limit(), *layer};
+    case msg::QUERY_RAY:
+      return RayQuery{vec(rq.ray_origin()), vec(rq.ray_direction()), rq.max_range(), rq.ignore_unknown(),
+                      *layer};
+    case msg::QUERY_STATS:
+      return StatsQuery{};
+  }
+  return failure(Status::kUnknownKind,
+                 fmt::format("unknown query kind {}; this server knows kinds 0..{} (commands such as save "
+                             "and reset go to the admin topic)",
+                             static_cast<unsigned>(rq.kind()), static_cast<unsigned>(msg::QUERY_STATS)));
+}
+
+msg::QueryStatus toWire(Status s) {
+  switch (s) {
+    case Status::kOk:
+      return msg::STATUS_OK;
+    case Status::kInvalidArgument:
+      return msg::STATUS_INVALID_ARGUMENT;
+    case Status::kUnknownKind:
+      return msg::STATUS_UNKNOWN_KIND;
+    case Status::kLayerUnavailable:
+      return msg::STATUS_LAYER_UNAVAILABLE;
+    case Status::kFailed:
+      return msg::STATUS_FAILED;
+    case Status::kNotFound:
+      return msg::STATUS_NOT_FOUND;
+    case Status::kUnavailable:
+      return msg::STATUS_UNAVAILABLE;
+  }
+  return msg::STATUS_FAILED;
+}
+
+msg::MapStatistics toWire(const MapSummary& s) {
+  msg::MapStatistics m;
+  m.backend(s.backend);
+  m.resolution(s.resolution);
+  m.map_version(s.map_version);
+  m.known_cells(s.known_cells);
+  m.occupied_cells(s.occupied_cells);
+  m.memory_bytes(s.memory_bytes);
+  m.bounds_min(arr(s.bounds_min));
+  m.bounds_max(arr(s.bounds_max));
+  return m;
+}
+
+msg::QueryReply toReply(const msg::QueryRequest& rq, const Answer& a) {
+  msg::QueryReply rp;
+  rp.client_id(rq.client_id());
+  rp.request_id(rq.request_id());
+  rp.kind(rq.kind());
+  rp.status(toWire(a.status));
+  rp.message(a.message);
+  rp.map_version(a.map_version);
+  if (const auto* p = std::get_if<PointsAnswer>(&a.result)) {
+    rp.probabilities(p->probabilities);
+    rp.states().resize(p->states.size());
+    std::transform(p->states.begin(), p->states.end(), rp.states().begin(), [](CellState c) {
+      return c == CellState::kOccupied ? msg::CELL_OCCUPIED
+             : c == CellState::kFree   ? msg::CELL_FREE
+                                       : msg::CELL_UNKNOWN;
+    });
+  } else if (const auto* b = std::get_if<BoxAnswer>(&a.result)) {
+    rp.cells().reserve(3 * b->cells.size());
+    for (const Vec3f& c : b->cells) rp.cells().insert(rp.cells().end(), {c.x(), c.y(), c.z()});
+    rp.truncated(b->truncated);
+  } else if (const auto* r = std::get_if<RayAnswer>(&a.result)) {
+    rp.hit(r->hit);
+    rp.hit_point(arr(r->hit_point));
+  } else if (const auto* s = std::get_if<MapSummary>(&a.result)) {
+    rp.stats(toWire(*s));
+  }
+  return rp;
+}
+
+std::variant<std::monostate, Command, CommandResult> toCommand(const msg::AdminRequest& rq) {
+  switch (rq.kind()) {
+    case msg::ADMIN_PING:
+      return std::monostate{};
+    case msg::ADMIN_SAVE:
+      return Command{SaveCommand{rq.name()}};
+    case msg::ADMIN_LOAD:
+      return Command{LoadCommand{rq.name()}};
+    case msg::ADMIN_CLEAR_BOX:
+      return Command{ClearBoxCommand{vec(rq.box_min()), vec(rq.box_max())}};
+    case msg::ADMIN_RESET:
+      return Command{ResetCommand{}};
+  }
+  CommandResult r;
+  r.status = Status::kUnknownKind;
+  r.message = fmt::format("unknown command kind {}; this server knows kinds 0..{}",
+                          static_cast<unsigned>(rq.kind()), static_cast<unsigned>(msg::ADMIN_RESET));
+  return r;
+}
+
+msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& r) {
+  msg::AdminReply rp;
+  rp.client_id(rq.client_id());
+  rp.request_id(rq.request_id());
+  rp.kind(rq.kind());
+  rp.status(toWire(r.status));
+  rp.message(r.message);
+  rp.map_version(r.map_version);
+  rp.cells_changed(r.cells_changed);
+  if (r.map) rp.stats(toWire(*r.map));
+  return rp;
+}
+
+msg::ServerStatistics toWire(const ServiceStatistics& s) {
+  msg::ServerStatistics m;
+  m.server_id(s.server_id);
+  m.stamp_ns(s.stamp_ns);
+  m.uptime_s(s.uptime_s);
+  for (const auto& [id, c] : s.robots) {
+    msg::RobotStatistics r;
+    r.robot_id(id);
+    r.received(c.received);
+    r.processed(c.processed);
+    r.dropped(c.dropped);
+    r.rejected(c.rejected);
+    r.points_rejected(c.points_rejected);
+    r.queue_depth(static_cast<std::uint32_t>(c.queue_depth));
+    r.queue_capacity(static_cast<std::uint32_t>(c.queue_capacity));
+    r.last_sequence(c.last_seq);
+    m.robots().push_back(std::move(r));
+  }
+  for (const StageCounters& c : s.stages) {
+    msg::StageStatistics st;
+    st.name(c.name);
+    st.processed(c.processed);
+    st.dropped(c.dropped);
+    st.queue_depth(static_cast<std::uint32_t>(c.queue_depth));
+    st.latency_p50_ms(c.latency.p50_ms);
+    st.latency_p99_ms(c.latency.p99_ms);
+    st.latency_max_ms(c.latency.max_ms);
+    m.stages().push_back(std::move(st));
+  }
+  m.map_stats().backend(s.backend);
+  m.map_stats().resolution(s.resolution);
+  m.map_stats().map_version(s.map_version);
+  m.map_stats().memory_bytes(s.memory_bytes);
+  m.publish_to_map_p50_ms(s.publish_to_map.p50_ms);
+  m.publish_to_map_p99_ms(s.publish_to_map.p99_ms);
+  m.queries_answered(s.queries_answered);
+  m.queries_failed(s.queries_failed);
+  m.commands_done(s.commands_done);
+  m.commands_failed(s.commands_failed);
+  m.resident_bytes(s.resident_bytes);
+  return m;
+}
+
+}  // namespace densemap::server::dds_edge

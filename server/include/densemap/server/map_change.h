@@ -1,0 +1,27 @@
+// A command that travels the pipeline like a scan (clear box, reset, load, and a save's snapshot), so
+// every change to either layer happens on that layer's writer thread, in order with the scans: one door,
+// which the journal of a later issue records. Each stage applies its part; the last one completes it.
+#pragma once
+
+#include <future>
+#include <memory>
+
+#include "densemap/map/occupancy_map.h"
+#include "densemap/server/command.h"
+
+namespace densemap::server {
+
+struct MapChange {
+  explicit MapChange(Command c) : command(std::move(c)) {}
+
+  Command command;
+  /// LoadCommand: the decoded map the occupancy stage swaps in.
+  std::unique_ptr<map::OccupancyMap> loaded;
+  /// SaveCommand: the copy the occupancy stage takes (written to disk off the writer thread).
+  std::unique_ptr<map::OccupancyMap> snapshot;
+  double snapshot_ms = 0.0;  ///< how long taking the snapshot held up the map update
+  CommandResult result;
+  std::promise<void> done;  ///< set when the last stage has applied it (or the pipeline gave it up)
+};
+
+}  // namespace densemap::server

@@ -1,0 +1,85 @@
+// The mapping service without any transport: owns the two layers, the scan pipeline (densify -> exact
+// occupancy update -> dense layer), query answering and commands. Edges (DDS, ROS 2) convert their
+// messages to the types below and call these five functions; nothing here knows DDS or libtorch.
+//
+// One door for changes: scans, clear box, reset and load all reach a layer through that layer's writer
+// thread, in one order (the pipeline), which a journal can record and replay exactly.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "densemap/server/command.h"
+#include "densemap/server/latency_window.h"
+#include "densemap/server/map_directory.h"
+#include "densemap/server/map_stores.h"
+#include "densemap/server/pipeline.h"
+#include "densemap/server/query.h"
+#include "densemap/server/query_answerer.h"
+#include "densemap/server/service_options.h"
+#include "densemap/server/service_statistics.h"
+
+namespace densemap::server {
+
+/// What submit() did with a scan at the door.
+struct SubmitResult {
+  bool accepted = false;  ///< queued; its final outcome comes through the outcome listener
+  std::string why;        ///< when not accepted (rejected at the door: also reported to the listener)
+};
+
+class MapService {
+ public:
+  /// Builds the layers and the pipeline and starts the pipeline's threads. Throws std::invalid_argument
+  /// (with a message naming the option) or std::runtime_error (e.g. a missing ILN weights file).
+  explicit MapService(ServiceOptions options);
+  ~MapService();
+  MapService(const MapService&) = delete;
+  MapService& operator=(const MapService&) = delete;
+
+  /// Validates the scan and queues it (may block under the wait overflow policy). `on_outcome` hears the
+  /// scan's final outcome exactly once (a rejection at the door included), on a pipeline thread.
+  SubmitResult submit(ScanJob job, OutcomeCallback on_outcome = {});
+  /// Counts and reports a scan an edge could not convert (malformed as a message), like a rejection.
+  void refuse(const ScanJob& job, const std::string& why, const OutcomeCallback& on_outcome = {});
+  /// Answers from a consistent state of the map; never throws.
+  Answer answer(const Query& query);
+  /// Runs a command; changes go through the writer threads in order with the scans; never throws.
+  /// `requester` names who asked, for the log.
+  CommandResult execute(const Command& command, const std::string& requester = "");
+  /// Counts a query or a command an edge refused before it could be one (unknown kind, malformed), so
+  /// the statistics count every request.
+  void countRefusedQuery() { answerer_->countFailure(); }
+  void countRefusedCommand() { ++commands_failed_; }
+  ServiceStatistics statistics() const;
+  /// Stops taking scans; with `drain` maps every queued scan, else drops them (counted); saves if
+  /// configured. Idempotent.
+  void stop(bool drain);
+  void stop() { stop(options_.drain_on_exit); }
+
+  const ServiceOptions& options() const { return options_; }
+  /// Reads the exact map / the dense layer (tests, benchmarks). The dense store is null without one.
+  const MapStore& mapStore() const { return *store_; }
+  const DenseStore* denseStore() const { return dense_store_.get(); }
+  const MapDirectory& mapDirectory() const { return *map_dir_; }
+
+ private:
+  CommandResult runChange(std::shared_ptr<MapChange> change);
+  CommandResult save(const SaveCommand& c);
+  CommandResult load(const LoadCommand& c);
+
+  ServiceOptions options_;
+  std::chrono::steady_clock::time_point started_;
+  std::unique_ptr<MapStore> store_;
+  std::unique_ptr<DenseStore> dense_store_;
+  std::unique_ptr<MapDirectory> map_dir_;
+  std::unique_ptr<QueryAnswerer> answerer_;
+  std::unique_ptr<Pipeline> pipeline_;
+  LatencyWindow snapshot_ms_;
+  std::atomic<std::uint64_t> commands_done_{0}, commands_failed_{0};
+  std::mutex stop_mutex_;
+  bool stopped_ = false;
+};
+
+}  // namespace densemap::server

@@ -1,0 +1,27 @@
+#include "densemap/server/dense_stage.h"
+
+#include "densemap/server/update_priority.h"
+
+namespace densemap::server {
+
+StageResult DenseStage::process(ScanJob& job) {
+  if (!niced_ && nice_ > 0) setThreadsNice(openmpTeamThreadIds(), nice_);
+  niced_ = true;
+  // The occupancy stage before this one left the points in the world frame.
+  std::vector<geometry::Vec3f> converted;
+  if (job.scan.frame != io::PointFrame::kWorld) converted = job.scan.worldPoints();
+  const auto& points = job.scan.frame == io::PointFrame::kWorld ? job.scan.points : converted;
+  auto prepared = store_.writerView().prepare(points, job.scan.origin());
+  store_.write([&](dense::KernelLayer& layer) { layer.commit(prepared); });
+  return {};
+}
+
+void DenseStage::applyChange(MapChange& change) {
+  // A reset forgets both layers; a loaded map brings no dense evidence, so the layer starts over.
+  if (std::holds_alternative<ResetCommand>(change.command) ||
+      std::holds_alternative<LoadCommand>(change.command)) {
+    if (change.result.status == Status::kOk) store_.write([](dense::KernelLayer& layer) { layer.clear(); });
+  }
+}
+
+}  // namespace densemap::server

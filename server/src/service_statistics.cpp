@@ -1,0 +1,44 @@
+#include "densemap/server/service_statistics.h"
+
+#include <unistd.h>
+
+#include <fstream>
+
+#include <fmt/format.h>
+
+namespace densemap::server {
+
+RobotCounters ServiceStatistics::totals() const {
+  RobotCounters t;
+  for (const auto& [id, r] : robots) {
+    t.received += r.received;
+    t.processed += r.processed;
+    t.dropped += r.dropped;
+    t.rejected += r.rejected;
+    t.points_rejected += r.points_rejected;
+  }
+  return t;
+}
+
+std::string ServiceStatistics::summaryLine() const {
+  const RobotCounters t = totals();
+  std::string stage_text;
+  for (const auto& st : stages) {
+    stage_text += fmt::format("; {} p50 {:.2f} p99 {:.2f} ms", st.name, st.latency.p50_ms, st.latency.p99_ms);
+    if (st.dropped > 0) stage_text += fmt::format(" ({} scans skipped: behind)", st.dropped);
+  }
+  return fmt::format(
+      "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms p99 "
+      "{:.1f} ms; map {:.1f} MB; {} queries{}",
+      robots.size(), t.received, t.processed, t.dropped, t.rejected, publish_to_map.p50_ms,
+      publish_to_map.p99_ms, static_cast<double>(memory_bytes) / 1e6, queries_answered, stage_text);
+}
+
+std::uint64_t residentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  statm >> size >> resident;
+  return resident * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace densemap::server
