@@ -16,6 +16,7 @@
 
 #include "densemap/cli/cli_common.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/retain_freed_memory.h"
@@ -74,8 +75,7 @@ OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, doub
 }
 
 std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend, double res) {
-  if (backend == "grid") return std::make_unique<map::GridMap>(res);
-  return std::make_unique<map::OctreeMap>(res);
+  return map::makeMap({backend, res, {}});
 }
 
 struct MethodRun {

@@ -15,9 +15,11 @@
 
 #include "densemap/cli/cli_common.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
+#include "densemap/dense/dense_layer_factory.h"
 #include "densemap/dense/isotropic_kernel_layer.h"
 #include "densemap/densify/densify_dataset.h"
 #include "densemap/densify/iln_upsampler.h"
+#include "densemap/densify/model_files.h"
 #include "densemap/eval/classification_metrics.h"
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
@@ -119,8 +121,8 @@ int main(int argc, char** argv) {
     if (densify_method == "bilinear") upsampler = std::make_unique<densify::BilinearUpsampler>();
     if (densify_method == "iln") {
       densify::IlnUpsampler::setThreads(std::max(1, threads == 0 ? 2 : threads));
-      upsampler = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(
-          densify_weights.empty() ? std::string(DENSEMAP_MODEL_DIR) + "/iln_compact.pt" : densify_weights));
+      upsampler = std::make_unique<densify::IlnUpsampler>(
+          densify::IlnUpsampler::load(densify_weights.empty() ? densify::shippedWeights() : densify_weights));
     }
     if (upsampler && beam_step < 2)
       throw std::invalid_argument("--densify needs --keep-every-nth-beam 2 or more");
@@ -193,25 +195,17 @@ int main(int argc, char** argv) {
           if (const auto v = grid.logOdds(k)) pred[i] = map::OccupancyParams::probability(*v);
         }
       } else if (m == "bgk" || m == "akimap") {
-        dense::KernelLayerOptions lo;
+        dense::DenseLayerOptions lo;
+        lo.method = m;
         lo.resolution = resolution;
-        lo.sampling.free_sample_distance = free_distance;
-        lo.sampling.max_range = max_range;
-        lo.sampling.free_voxel_size = free_voxel;
+        lo.free_sample_distance = free_distance;
+        lo.max_range = max_range;
+        lo.free_voxel_size = free_voxel;
         lo.seed = seed;
-        std::unique_ptr<dense::KernelLayer> layer;
-        if (m == "bgk") {
-          dense::IsotropicKernelOptions o;
-          o.layer = lo;
-          layer = std::make_unique<dense::IsotropicKernelLayer>(o);
-        } else {
-          dense::AdaptiveKernelOptions o;
-          o.layer = lo;
-          o.min_search_radius = min_radius;
-          o.isotropic_free_kernels = iso_free;
-          o.min_occupied_search_radius = min_occupied_radius;
-          layer = std::make_unique<dense::AdaptiveKernelLayer>(o);
-        }
+        lo.min_search_radius = min_radius;
+        lo.isotropic_free_kernels = iso_free;
+        lo.min_occupied_search_radius = min_occupied_radius;
+        const std::unique_ptr<dense::KernelLayer> layer = dense::makeDenseLayer(lo, resolution);
         const auto t0 = Clock::now();
         for (const auto& s : used) layer->insert(s.map_points, s.origin);
         r.seconds = secondsSince(t0);

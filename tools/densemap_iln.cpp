@@ -17,6 +17,7 @@
 #include "densemap/cli/cli_common.h"
 #include "densemap/densify/densify_dataset.h"
 #include "densemap/densify/iln_upsampler.h"
+#include "densemap/densify/model_files.h"
 #include "densemap/io/pcd_file.h"
 
 using namespace densemap;
@@ -27,16 +28,6 @@ namespace {
 
 double seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
-}
-
-/// The default weights: next to the executable's source tree, or installed beside it.
-std::string defaultWeights(const std::string& file) {
-  for (const std::string& dir :
-       {std::string(DENSEMAP_MODEL_DIR), std::string("/opt/densemap/share/densemap/models")}) {
-    const auto p = std::filesystem::path(dir) / file;
-    if (std::filesystem::exists(p)) return p.string();
-  }
-  return (std::filesystem::path(DENSEMAP_MODEL_DIR) / file).string();
 }
 
 LidarGeometry geometryOf(const io::Scan& scan, int rows, int columns) {
@@ -194,9 +185,9 @@ int runEval(const EvalArgs& a) {
       net->setName("iln-" + std::filesystem::path(m.substr(4)).stem().string());
       methods.push_back(std::move(net));
     } else if (m == "iln" || m == "iln-compact" || m == "iln-full") {
-      const std::string w = m == "iln-full"
-                                ? (a.full_weights.empty() ? defaultWeights("iln_full.pt") : a.full_weights)
-                                : (a.weights.empty() ? defaultWeights("iln_compact.pt") : a.weights);
+      const std::string w =
+          m == "iln-full" ? (a.full_weights.empty() ? densify::shippedWeights("iln_full.pt") : a.full_weights)
+                          : (a.weights.empty() ? densify::shippedWeights("iln_compact.pt") : a.weights);
       auto net = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(w));
       net->setName(m);
       methods.push_back(std::move(net));
@@ -333,7 +324,8 @@ int main(int argc, char** argv) {
     if (*train) return runTrain(t);
     if (*eval) return runEval(e);
     densify::IlnUpsampler::setThreads(threads);
-    auto net = densify::IlnUpsampler::load(weights.empty() ? defaultWeights("iln_compact.pt") : weights);
+    auto net =
+        densify::IlnUpsampler::load(weights.empty() ? densify::shippedWeights("iln_compact.pt") : weights);
     const LidarGeometry kitti{};
     const LidarGeometry sparse =
         densify::everyNthBeam(kitti, std::max(1, (kitti.rows - 1) / std::max(1, in_rows - 1)));

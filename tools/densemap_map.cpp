@@ -9,6 +9,7 @@
 
 #include "densemap/cli/cli_common.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/map/map_factory.h"
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
@@ -82,12 +83,7 @@ int main(int argc, char** argv) {
     opt.super_rays.threshold = threshold;
     opt.in_scan_closure = closure_every > 0;
     opt.closure_sample_every = closure_every;
-    std::unique_ptr<map::OccupancyMap> m;
-    if (backend == "grid") {
-      m = std::make_unique<map::GridMap>(resolution, params);
-    } else {
-      m = std::make_unique<map::OctreeMap>(resolution, params);
-    }
+    std::unique_ptr<map::OccupancyMap> m = map::makeMap({backend, resolution, params});
     update::UpdateEngine engine(opt);
     update::UpdateStats total;
     std::size_t done = 0, rejected_scans = 0;

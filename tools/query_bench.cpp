@@ -15,6 +15,7 @@
 
 #include "densemap/cli/cli_common.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/percentile.h"
@@ -48,14 +49,7 @@ int main(int argc, char** argv) {
   try {
     const auto src = io::openSource(source);
     const auto range = cli::parseScanRange(scans, src->size());
-    std::unique_ptr<map::OccupancyMap> m;
-    if (backend == "grid") {
-      m = std::make_unique<map::GridMap>(resolution);
-    } else if (backend == "octree") {
-      m = std::make_unique<map::OctreeMap>(resolution);
-    } else {
-      throw std::invalid_argument("unknown backend '" + backend + "' (use grid or octree)");
-    }
+    std::unique_ptr<map::OccupancyMap> m = map::makeMap({backend, resolution, {}});
     update::UpdateEngine engine;
     geometry::Vec3f origin = geometry::Vec3f::Zero();
     for (std::size_t i = range.first; i <= range.last; ++i) {

@@ -20,7 +20,8 @@ std::string shippedWeights(const std::string& file) {
     if (fs::exists(p, ec)) return p.string();
     looked += (looked.empty() ? "" : ", ") + dir.string();
   }
-  throw std::runtime_error("no " + file + " in " + looked + "; pass the weights file with --densify-weights");
+  throw std::runtime_error("no " + file + " in " + looked +
+                           "; pass a weights file instead (--densify-weights, or the tool's --weights)");
 }
 
 }  // namespace densemap::densify
