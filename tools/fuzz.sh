@@ -13,8 +13,15 @@ cd "$root/build-fuzz"
 for target in fuzz_*; do
   [ -x "$target" ] || continue
   echo "fuzz: $target for $seconds s"
+  # Seeds (tests/fuzz/corpus/TARGET, copied so the run's finds stay in build-fuzz) and a dictionary.
+  args=()
+  if [ -d "$root/tests/fuzz/corpus/$target" ]; then
+    mkdir -p "corpus-$target" && cp -n "$root/tests/fuzz/corpus/$target"/* "corpus-$target/"
+    args+=("corpus-$target")
+  fi
+  [ -f "$root/tests/fuzz/$target.dict" ] && args+=("-dict=$root/tests/fuzz/$target.dict")
   status=0
-  "./$target" -max_total_time="$seconds" -print_final_stats=1 > "$target.log" 2>&1 || status=$?
+  "./$target" -max_total_time="$seconds" -print_final_stats=1 "${args[@]}" > "$target.log" 2>&1 || status=$?
   grep -E "stat::number_of_executed_units|ERROR|SUMMARY" "$target.log" || true
   [ "$status" -eq 0 ] || { echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2; exit 1; }
 done
