@@ -4,7 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "densemap/densify/iln_upsampler.h"
+#include "densemap/densify/iln_plugin.h"
 #include "densemap/densify/model_files.h"
 
 namespace densemap::server {
@@ -24,10 +24,7 @@ std::unique_ptr<densify::RangeUpsampler> makeUpsampler(const DensifyOptions& o) 
   if (o.method != "iln")
     throw std::invalid_argument("densify method must be none, iln or bilinear, not " + o.method);
   const std::string path = o.weights.empty() ? densify::shippedWeights() : o.weights;
-  densify::IlnUpsampler::setThreads(o.threads);
-  auto net = std::make_unique<densify::IlnUpsampler>(densify::IlnUpsampler::load(path));
-  spdlog::info("densify: ILN from {} ({} parameters)", path, net->parameterCount());
-  return net;
+  return densify::loadIlnUpsampler(path, o.threads);  // libtorch is loaded here, only when ILN is asked for
 }
 
 DensifyStage::DensifyStage(const DensifyOptions& options, std::unique_ptr<densify::RangeUpsampler> upsampler)
