@@ -15,6 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
@@ -165,8 +167,9 @@ int main(int argc, char** argv) {
   app.add_flag("--no-unnecessary", no_unnecessary,
                "skip the extra pass that counts unnecessary traversals (Table 2.3)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  auto logging_table = cli::loggingOptions(log_level);
+  cli::addToApp(app, {&logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&logging_table})) return *rc;
   densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);

@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
 #include "densemap/dense/dense_layer_factory.h"
 #include "densemap/dense/isotropic_kernel_layer.h"
@@ -101,8 +103,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "bilinear", "iln"}));
   app.add_option("--densify-weights", densify_weights, "ILN weights (default models/iln/iln_compact.pt)");
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  auto logging_table = cli::loggingOptions(log_level);
+  cli::addToApp(app, {&logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&logging_table})) return *rc;
   cli::setupLogging(log_level);
   cli::setThreads(threads);
 

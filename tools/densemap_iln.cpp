@@ -15,6 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/densify/densify_dataset.h"
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/densify/model_files.h"
@@ -240,7 +242,8 @@ int main(int argc, char** argv) {
   CLI::App app{"densemap-iln: LiDAR super-resolution with the Implicit LiDAR Network (Ch. 4), on the CPU"};
   app.require_subcommand(1);
   std::string log_level = "info";
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  auto logging_table = cli::loggingOptions(log_level);
+  cli::addToApp(app, {&logging_table});
 
   TrainArgs t;
   auto* train =
@@ -318,7 +321,7 @@ int main(int argc, char** argv) {
   up->add_option("--weights", weights, "ILN weights (default models/iln/iln_compact.pt)");
   up->add_option("--threads", threads, "libtorch threads")->capture_default_str();
 
-  CLI11_PARSE(app, argc, argv);
+  if (const auto rc = cli::parse(app, argc, argv, {&logging_table})) return *rc;
   cli::setupLogging(log_level);
   try {
     if (*train) return runTrain(t);

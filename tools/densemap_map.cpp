@@ -8,6 +8,8 @@
 #include <CLI/CLI.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/map_file.h"
@@ -20,70 +22,43 @@ using namespace densemap;
 int main(int argc, char** argv) {
   CLI::App app{
       "densemap-map: build an occupancy map from scans (exact log-odds map, super rays + culling region)"};
-  std::string source = "sim", scans, backend = "octree", method = "superrays+culling", semantics = "batch";
-  std::string output, log_level = "info";
-  double resolution = 0.2, max_range = -1.0;
+  std::string source = "sim", scans, output, log_level = "info";
+  map::MapOptions map_options;
+  map_options.backend = "octree";  // this tool writes OctoMap files by default
+  update::UpdateOptions opt;
   int threads = 0;
   unsigned threshold = 20;
   std::size_t closure_every = 8;
-  map::OccupancyParams params;
+  auto map_table = cli::mapOptions(map_options);
+  auto update_table = cli::updateOptions(opt);
+  auto logging_table = cli::loggingOptions(log_level);
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
   app.add_option("--source", source,
                  "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD "
                  "directory or .graph")
       ->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--resolution", resolution, "voxel size in metres")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--backend", backend, "grid or octree")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"grid", "octree"}));
-  app.add_option("--method", method, "baseline, superrays, culling or superrays+culling")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"baseline", "superrays", "culling", "superrays+culling"}));
-  app.add_option("--semantics", semantics, "batch (OctoMap insertPointCloud) or counting (Sec. 2.3.4)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"batch", "counting"}));
-  app.add_option("--max-range", max_range, "cut rays at this range in metres (<0: unlimited)")
-      ->capture_default_str();
+  cli::addToApp(app, {&map_table, &update_table, &logging_table});
   app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
-      ->capture_default_str();
-  app.add_option("--prob-hit", params.prob_hit, "P(occupied) of a cell holding an endpoint")
-      ->capture_default_str();
-  app.add_option("--prob-miss", params.prob_miss, "P(occupied) of a cell a ray crosses")
-      ->capture_default_str();
-  app.add_option("--clamp-min", params.clamp_min, "lower clamping probability (fully free)")
-      ->capture_default_str();
-  app.add_option("--clamp-max", params.clamp_max, "upper clamping probability (fully occupied)")
       ->capture_default_str();
   app.add_option("--closure-sample", closure_every,
                  "culling + batch: walk every N-th ray first, then close the region over its marks (0: off)")
       ->capture_default_str();
   app.add_option("--output", output, "save the map: .bt or .ot (octree backend)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto rc = cli::parse(app, argc, argv, {&map_table, &update_table, &logging_table})) return *rc;
   densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);
 
   try {
-    if (const std::string bad = params.validate(); !bad.empty()) {
-      spdlog::error("invalid sensor model: {} (defaults: hit 0.7, miss 0.4, clamping 0.1192..0.971)", bad);
-      return 2;
-    }
     auto src = io::openSource(source);
     const auto range = cli::parseScanRange(scans, src->size());
     spdlog::info("source: {}", src->describe());
-    update::UpdateOptions opt;
-    opt.method = *update::parseMethod(method);
-    opt.semantics = *map::parseSemantics(semantics);
-    opt.max_range = max_range;
     opt.super_rays.threshold = threshold;
     opt.in_scan_closure = closure_every > 0;
     opt.closure_sample_every = closure_every;
-    std::unique_ptr<map::OccupancyMap> m = map::makeMap({backend, resolution, params});
+    std::unique_ptr<map::OccupancyMap> m = map::makeMap(map_options);
     update::UpdateEngine engine(opt);
     update::UpdateStats total;
     std::size_t done = 0, rejected_scans = 0;
@@ -121,8 +96,10 @@ int main(int argc, char** argv) {
     std::printf("  points          %llu (%llu rejected: non-finite or out of key range)\n",
                 static_cast<unsigned long long>(total.points),
                 static_cast<unsigned long long>(total.rejected));
-    std::printf("  map             %s, %.3f m, %s semantics, method %s, %d threads\n", backend.c_str(),
-                resolution, semantics.c_str(), method.c_str(), used_threads);
+    std::printf("  map             %s, %.3f m, %s semantics, method %s, %d threads\n",
+                map_options.backend.c_str(), map_options.resolution,
+                std::string(map::toString(opt.semantics)).c_str(),
+                std::string(update::toString(opt.method)).c_str(), used_threads);
     std::printf("  time            %.1f ms/scan (generation %.1f + update %.1f), %.1f scans/s\n",
                 done ? total.totalMs() / static_cast<double>(done) : 0.0,
                 done ? total.generation_ms / static_cast<double>(done) : 0.0,

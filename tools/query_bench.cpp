@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
@@ -30,26 +32,27 @@ double us(Clock::time_point t) { return std::chrono::duration<double, std::micro
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-query-bench: point-query lookups, one per point vs one batch, on a map of a source"};
-  std::string source = "sim", scans, backend = "grid";
-  double resolution = 0.2, radius = 20.0;
+  std::string source = "sim", scans;
+  map::MapOptions map_options;
+  double radius = 20.0;
   std::size_t points = 1000, batches = 500;
   bool as_json = false;
   app.add_option("--source", source, "scan source (sim, a dataset directory, ...)")->capture_default_str();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--resolution", resolution, "cell size in metres")->capture_default_str();
-  app.add_option("--backend", backend, "grid or octree")->capture_default_str();
+  auto map_table = cli::mapOptions(map_options);
+  cli::addToApp(app, {&map_table});
   app.add_option("--points", points, "points per query batch")->capture_default_str();
   app.add_option("--batches", batches, "query batches timed per method")->capture_default_str();
   app.add_option("--radius", radius,
                  "points are drawn within this many metres (x, y) of the last sensor origin")
       ->capture_default_str();
   app.add_flag("--json", as_json, "print one JSON object");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto rc = cli::parse(app, argc, argv, {&map_table})) return *rc;
   cli::setupLogging("warn");
   try {
     const auto src = io::openSource(source);
     const auto range = cli::parseScanRange(scans, src->size());
-    std::unique_ptr<map::OccupancyMap> m = map::makeMap({backend, resolution, {}});
+    std::unique_ptr<map::OccupancyMap> m = map::makeMap(map_options);
     update::UpdateEngine engine;
     geometry::Vec3f origin = geometry::Vec3f::Zero();
     for (std::size_t i = range.first; i <= range.last; ++i) {
@@ -94,8 +97,8 @@ int main(int argc, char** argv) {
     }
     const double s50 = percentile(single_us, 0.5), b50 = percentile(batch_us, 0.5);
     nlohmann::json j = {{"source", src->describe()},
-                        {"backend", backend},
-                        {"resolution", resolution},
+                        {"backend", map_options.backend},
+                        {"resolution", map_options.resolution},
                         {"points", points},
                         {"batches", batches},
                         {"known_share", static_cast<double>(known) / static_cast<double>(points * batches)},
@@ -109,8 +112,8 @@ int main(int argc, char** argv) {
       std::printf("%s\n", j.dump().c_str());
     } else {
       std::printf("%s, %s map at %.2f m; %zu batches of %zu points (%.0f%% known cells), caches flushed\n",
-                  src->describe().c_str(), backend.c_str(), resolution, batches, points,
-                  100.0 * j["known_share"].get<double>());
+                  src->describe().c_str(), map_options.backend.c_str(), map_options.resolution, batches,
+                  points, 100.0 * j["known_share"].get<double>());
       std::printf("one logOdds() per point: p50 %.1f us, p99 %.1f us\n", s50,
                   j["single_p99_us"].get<double>());
       std::printf("one logOddsMany() batch: p50 %.1f us, p99 %.1f us (%.2fx at p50), %zu mismatches\n", b50,

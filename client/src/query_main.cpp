@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/client/map_render.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/statistics_subscriber.h"
@@ -91,14 +93,15 @@ int main(int argc, char** argv) {
   bool as_json = false;
   double timeout_s = 10.0;
   std::string layer_name = "occupancy", log_level = "warn";
-  msg::addDdsOptions(app, dds);
+  auto dds_table = msg::ddsOptions(dds);
+  auto logging_table = cli::loggingOptions(log_level);
+  cli::addToApp(app, {&dds_table, &logging_table});
   app.add_flag("--json", as_json, "print one JSON object instead of text");
   app.add_option("--timeout", timeout_s, "seconds to wait for the server and for each reply")
       ->capture_default_str();
   app.add_option("--layer", layer_name, "occupancy (exact log-odds map), dense or fused")
       ->capture_default_str()
       ->check(CLI::IsMember({"occupancy", "dense", "fused"}));
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
   app.require_subcommand(1);
 
   std::vector<std::string> point_args;
@@ -142,7 +145,7 @@ int main(int argc, char** argv) {
   render->add_option("--pixel", pixel, "metres per pixel (default: the map resolution)");
   render->add_option("--min", area_min, "lower corner x,y of the area (default: the map's bounds)");
   render->add_option("--max", area_max, "upper corner x,y of the area");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto rc = cli::parse(app, argc, argv, {&dds_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
 
   try {

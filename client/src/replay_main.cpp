@@ -17,6 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "densemap/cli/cli_common.h"
+#include "densemap/cli/common_options.h"
+#include "densemap/cli/option_cli.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
@@ -69,7 +71,9 @@ int main(int argc, char** argv) {
   std::string center_text = "0,0,0", query_kind = "points";
   std::size_t query_points = 1000;
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
-  msg::addDdsOptions(app, dds);
+  auto dds_table = msg::ddsOptions(dds);
+  auto logging_table = cli::loggingOptions(log_level);
+  cli::addToApp(app, {&dds_table, &logging_table});
   app.add_option(
          "--source", source,
          "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or "
@@ -138,8 +142,7 @@ int main(int argc, char** argv) {
   app.add_option("--scan-log", scan_log_path,
                  "append one JSON line per scan sent, refused by DDS and acknowledged, as it happens (kept "
                  "when the process is killed; the cross-host test reads it)");
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto rc = cli::parse(app, argc, argv, {&dds_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
 
   try {

@@ -1,5 +1,6 @@
 #include "densemap/server/densify_stage.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <spdlog/spdlog.h>
@@ -32,7 +33,8 @@ DensifyStage::DensifyStage(const DensifyOptions& options, std::unique_ptr<densif
 
 bool DensifyStage::applies(const ScanJob& job) const {
   if (!job.scan.lidar) return false;
-  if (!options_.robots.empty()) return options_.robots.count(job.robot_id) > 0;
+  if (!options_.robots.empty())
+    return std::find(options_.robots.begin(), options_.robots.end(), job.robot_id) != options_.robots.end();
   return options_.input_rows == 0 || job.scan.lidar->rows == options_.input_rows;
 }
 

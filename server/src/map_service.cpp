@@ -11,6 +11,7 @@
 #include "densemap/server/occupancy_stage.h"
 #include "densemap/server/request_error.h"
 #include "densemap/server/scan_validator.h"
+#include "densemap/server/service_option_table.h"
 #include "densemap/server/update_priority.h"
 #include "densemap/util/wall_clock.h"
 
@@ -30,6 +31,7 @@ map::OctomapFormat formatOf(const std::string& name) {
 
 MapService::MapService(ServiceOptions options)
     : options_(std::move(options)), started_(std::chrono::steady_clock::now()) {
+  validateServiceOptions(options_);  // the option tables' ranges: the one place options are checked
   store_ = std::make_unique<MapStore>(map::makeMap(options_.map));
   map_dir_ = std::make_unique<MapDirectory>(mapDirOf(options_));
   std::vector<std::unique_ptr<PipelineStage>> stages;
@@ -39,8 +41,6 @@ MapService::MapService(ServiceOptions options)
       *store_, options_.update,
       resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice)));
   if (auto layer = dense::makeDenseLayer(options_.dense, options_.map.resolution)) {
-    if (options_.dense_nice < 0 || options_.dense_nice > 19)
-      throw std::invalid_argument("the dense layer's nice value must be 0..19");
     dense_store_ = std::make_unique<DenseStore>(std::move(layer));
     stages.push_back(std::make_unique<DenseStage>(*dense_store_, options_.dense_nice));
   }

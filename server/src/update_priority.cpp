@@ -111,11 +111,6 @@ std::uint64_t UpdatePriority::promotions() const {
 }
 
 UpdatePriorityOptions resolveUpdatePriority(int update_nice, int catch_up_ms, int late_nice) {
-  if (update_nice < -1 || update_nice > 19)
-    throw std::invalid_argument("update_nice must be -1 (auto) or 0..19, not " + std::to_string(update_nice));
-  if (catch_up_ms < 0) throw std::invalid_argument("update_catch_up_ms must be >= 0");
-  if (late_nice < -20 || late_nice > 0)
-    throw std::invalid_argument("update_late_nice must be -20..0, not " + std::to_string(late_nice));
   UpdatePriorityOptions p;
   p.catch_up = std::chrono::milliseconds(catch_up_ms);
   const bool can_raise = UpdatePriority::canRaisePriority();

@@ -6,7 +6,9 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
@@ -41,13 +43,19 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
 DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(service), options_(options) {
   // Threads created from here on (DDS's receive threads, the query threads) inherit the short slice; the
   // scan intake sets the default back for itself (the pipeline's threads were created before).
-  if (options_.latency_slice_us < 0) throw std::invalid_argument("latency_slice_us must be >= 0");
+  {
+    DdsEdgeOptions copy = options_;  // checked against the option tables, the one place ranges live
+    std::vector<cli::OptionTable> tables;
+    tables.push_back(msg::ddsOptions(copy.dds));
+    tables.push_back(edgeOptions(copy));
+    for (const cli::OptionTable& t : tables) {
+      if (const std::string why = t.validate(); !why.empty()) throw std::invalid_argument(why);
+    }
+  }
   util::requestSchedulerSlice(std::chrono::microseconds(options_.latency_slice_us));
   listener_ = std::make_unique<Listener>(*this);
   // Real-time from here to the end: DDS's threads (they answer point and ray queries) and the query threads
   // inherit it; the intake, admin, ack and statistics threads drop it, and so does this thread at the end.
-  if (options_.realtime_priority < 0 || options_.realtime_priority > 99)
-    throw std::invalid_argument("realtime_priority must be 0..99");
   const bool realtime =
       options_.realtime_priority > 0 && util::setRealtimePriority(options_.realtime_priority);
   if (options_.realtime_priority > 0 && !realtime) {

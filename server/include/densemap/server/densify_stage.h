@@ -4,8 +4,8 @@
 #pragma once
 
 #include <memory>
-#include <set>
 #include <string>
+#include <vector>
 
 #include "densemap/densify/range_upsampler.h"
 #include "densemap/server/pipeline_stage.h"
@@ -18,7 +18,7 @@ struct DensifyOptions {
   /// Scans from a LiDAR with this many beams are densified (0: any scan that carries its geometry)...
   int input_rows = 16;
   /// ...or, when not empty, exactly the scans of these robots (they must carry their LiDAR geometry).
-  std::set<std::string> robots;
+  std::vector<std::string> robots;
   /// Output beams and columns (0: the input's columns). Beam spacing is the input's divided by
   /// rows / input rows, from the same top beam, so every input beam is an output beam (16 -> 64 reproduces
   /// the KITTI HDL-64E layout from its every 4th beam).

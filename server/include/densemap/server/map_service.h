@@ -56,7 +56,7 @@ class MapService {
   /// Stops taking scans; with `drain` maps every queued scan, else drops them (counted); saves if
   /// configured. Idempotent.
   void stop(bool drain);
-  void stop() { stop(options_.drain_on_exit); }
+  void stop() { stop(!options_.drop_on_exit); }
 
   const ServiceOptions& options() const { return options_; }
   /// Reads the exact map / the dense layer (tests, benchmarks). The dense store is null without one.

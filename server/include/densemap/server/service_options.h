@@ -1,6 +1,6 @@
-// Everything the mapping service (MapService, no transport) is configured with, with documented
-// defaults. Names, ranges and help live in the option table (service_option_table.cpp), from which the
-// flags, the configuration file keys, --help and config/server.toml come.
+// Everything the mapping service (MapService, no transport) is configured with, with its defaults. Names,
+// ranges and help are declared once, in the option tables (service_option_table.cpp), from which the flags,
+// the configuration file keys, --help and config/server.toml come.
 #pragma once
 
 #include <string>
@@ -51,8 +51,8 @@ struct ServiceOptions {
   std::string map_dir;
   /// Largest map file a load reads.
   std::size_t max_map_file_bytes = std::size_t{2} << 30;
-  /// On shutdown: process every queued scan (true) or drop them, counted (false).
-  bool drain_on_exit = true;
+  /// On shutdown: drop queued scans, counted (true), instead of mapping them first.
+  bool drop_on_exit = false;
   /// On shutdown, save the map here (a path chosen by the operator, .bt or .ot); empty: do not save.
   std::string save_on_exit;
 };

@@ -25,7 +25,7 @@ struct UpdatePriorityOptions {
 };
 
 /// The priority policy for the configured values (update_nice -1: 19 if this process may raise it back,
-/// else 0), saying in the log what it chose and why. Throws std::invalid_argument for values out of range.
+/// else 0), saying in the log what it chose and why. The values are in range (the option table checks).
 UpdatePriorityOptions resolveUpdatePriority(int update_nice, int catch_up_ms, int late_nice);
 
 /// Thread ids of the calling thread and its OpenMP team (libgomp keeps one persistent team per thread that

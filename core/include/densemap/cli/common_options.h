@@ -1,0 +1,21 @@
+// The option tables every program shares: logging, the map (backend, resolution, sensor model) and the
+// update method. One declaration each; densemap-server, -replay, -query, -map, -bench, -eval and -iln
+// all take them from here.
+#pragma once
+
+#include <string>
+
+#include "densemap/cli/option_table.h"
+#include "densemap/map/map_factory.h"
+#include "densemap/update/update_engine.h"
+
+namespace densemap::cli {
+
+/// --log-level.
+OptionTable loggingOptions(std::string& level);
+/// --backend, --resolution, --prob-hit, --prob-miss, --clamp-min, --clamp-max.
+OptionTable mapOptions(map::MapOptions& options);
+/// --method, --semantics, --max-range.
+OptionTable updateOptions(update::UpdateOptions& options);
+
+}  // namespace densemap::cli

@@ -1,0 +1,42 @@
+#include "densemap/cli/common_options.h"
+
+namespace densemap::cli {
+
+OptionTable loggingOptions(std::string& level) {
+  OptionTable t("Logging");
+  t.add("log-level", level, "how much to log")
+      .oneOf({"trace", "debug", "info", "warn", "error", "critical", "off"});
+  return t;
+}
+
+OptionTable mapOptions(map::MapOptions& o) {
+  OptionTable t("Map");
+  t.add("backend", o.backend, "grid (hashed 16^3 blocks, fastest) or octree (OctoMap's OcTree)")
+      .oneOf({"grid", "octree"});
+  t.add("resolution", o.resolution, "voxel edge in metres").range(0.001, 100.0);
+  t.add("prob-hit", o.params.prob_hit, "P(occupied) of a cell holding an endpoint").range(0.5, 1.0);
+  t.add("prob-miss", o.params.prob_miss, "P(occupied) of a cell a ray crosses").range(0.0, 0.5);
+  t.add("clamp-min", o.params.clamp_min, "lower clamping probability (Sec. 2.2.1)").range(0.0, 1.0);
+  t.add("clamp-max", o.params.clamp_max, "upper clamping probability").range(0.0, 1.0).checkedBy([&o] {
+    return o.params.validate();
+  });
+  return t;
+}
+
+OptionTable updateOptions(update::UpdateOptions& o) {
+  OptionTable t("Update (Ch. 2)");
+  t.addChoice(
+      "method", o.method,
+      {{"baseline", update::UpdateMethod::kBaseline},
+       {"superrays", update::UpdateMethod::kSuperRays},
+       {"culling", update::UpdateMethod::kCullingRegion},
+       {"superrays+culling", update::UpdateMethod::kSuperRaysCulling}},
+      "update method; all give the same map (super rays Sec. 2.3.1-2.3.4, culling region Sec. 2.3.5)");
+  t.addChoice("semantics", o.semantics,
+              {{"batch", map::UpdateSemantics::kBatch}, {"counting", map::UpdateSemantics::kCounting}},
+              "batch (OctoMap's insertPointCloud) or counting (Sec. 2.3.4)");
+  t.add("max-range", o.max_range, "cut rays at this range in metres (< 0: unlimited)").range(-1.0, 1e5);
+  return t;
+}
+
+}  // namespace densemap::cli

@@ -1,0 +1,50 @@
+#include "densemap/server/dds_edge/server_config.h"
+
+#include "densemap/cli/common_options.h"
+#include "densemap/msg/dds_options_cli.h"
+#include "densemap/server/service_option_table.h"
+
+namespace densemap::server::dds_edge {
+
+cli::OptionTable edgeOptions(DdsEdgeOptions& o) {
+  cli::OptionTable t("Queries and statistics (the DDS edge)");
+  t.add("query-threads", o.query_threads, "threads answering queries concurrently with the map update")
+      .range(1, 64);
+  t.add("latency-slice-us", o.latency_slice_us,
+        "scheduler slice of the DDS and query threads in microseconds (Linux >= 6.12; 0: the kernel's)")
+      .range(0, 1e6);
+  t.add(
+       "realtime-priority", o.realtime_priority,
+       "SCHED_FIFO priority of the DDS and query threads (needs CAP_SYS_NICE or `ulimit -r`; 0: off; README)")
+      .range(0, 99);
+  t.add("statistics-period", o.statistics_period_s,
+        "seconds between statistics messages and log lines (0: off)")
+      .range(0.0, 3600.0);
+  return t;
+}
+
+std::vector<cli::OptionTable> serverOptionTables(ServerConfig& c) {
+  std::vector<cli::OptionTable> tables;
+  tables.push_back(msg::ddsOptions(c.edge.dds));
+  tables.push_back(cli::mapOptions(c.service.map));
+  tables.push_back(cli::updateOptions(c.service.update));
+  for (auto& t : serviceOptionTables(c.service)) tables.push_back(std::move(t));
+  tables.push_back(edgeOptions(c.edge));
+  tables.push_back(cli::loggingOptions(c.log_level));
+  return tables;
+}
+
+std::string defaultServerToml() {
+  ServerConfig defaults;
+  const auto tables = serverOptionTables(defaults);
+  std::vector<const cli::OptionTable*> list;
+  for (const auto& t : tables) list.push_back(&t);
+  return cli::toToml(
+      list,
+      "# densemap-server's configuration: every key is a long command-line option (flags given on the\n"
+      "# command line win). The values are the defaults; the server needs no file at all.\n"
+      "#   ./build/server/densemap-server --config config/server.toml\n"
+      "# Generated from the option tables: densemap-server --print-config > config/server.toml\n");
+}
+
+}  // namespace densemap::server::dds_edge

@@ -1,0 +1,97 @@
+#include "densemap/server/service_option_table.h"
+
+#include "densemap/cli/common_options.h"
+
+namespace densemap::server {
+
+std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
+  std::vector<cli::OptionTable> tables;
+  {
+    cli::OptionTable& t = tables.emplace_back("Server");
+    t.add("server-id", o.server_id, "name in statistics and logs");
+  }
+  {
+    cli::OptionTable& t = tables.emplace_back(
+        "Densify (Ch. 4), a stage before the map: sparse scans re-sampled to a denser beam layout");
+    t.add("densify", o.densify.method, "none, iln (trained network; loads its plugin) or bilinear")
+        .oneOf({"none", "iln", "bilinear"});
+    t.add("densify-weights", o.densify.weights, "ILN weights (empty: the shipped models/iln/iln_compact.pt)");
+    t.add("densify-input-rows", o.densify.input_rows,
+          "densify scans from LiDARs with this many beams (0: any scan carrying its geometry)")
+        .range(0, 1024);
+    t.add("densify-robots", o.densify.robots, "or densify exactly these robots' scans");
+    t.add("densify-rows", o.densify.target_rows, "beams after densifying (every input beam is kept)")
+        .range(1, 1024);
+    t.add("densify-columns", o.densify.target_columns, "columns after densifying (0: the input's)")
+        .range(0, 16384);
+    t.add("densify-threads", o.densify.threads, "threads of the densify network").range(1, 64);
+  }
+  {
+    cli::OptionTable& t = tables.emplace_back(
+        "Dense layer (Ch. 3), a stage after the exact map; it drops the oldest scans when behind");
+    t.add("dense-layer", o.dense.method, "none, akimap or bgk").oneOf({"none", "akimap", "bgk"});
+    t.add("dense-resolution", o.dense.resolution, "cell size in metres (0: the map's resolution)")
+        .range(0.0, 100.0);
+    t.add("dense-free-voxel", o.dense.free_voxel_size,
+          "one free sample per voxel of this size (0: the dense resolution)")
+        .range(0.0, 100.0);
+    t.add("dense-max-range", o.dense.max_range, "cut rays here for the dense layer (metres; < 0: unlimited)")
+        .range(-1.0, 1e5);
+    t.add("dense-nice", o.dense_nice, "nice value of its threads: it drops scans rather than fall behind")
+        .range(0, 19);
+    t.add("dense-isotropic-free", o.dense.isotropic_free_kernels,
+          "AKIMap: isotropic kernels for free samples (docs/BENCHMARKS.md)");
+    t.add("dense-min-occupied-radius", o.dense.min_occupied_search_radius,
+          "AKIMap: floor of occupied samples' search radius in metres (0: the dissertation's)")
+        .range(0.0, 100.0);
+  }
+  {
+    cli::OptionTable& t = tables.emplace_back("Pipeline");
+    t.add("robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
+        .range(1, 100000);
+    t.addChoice(
+        "overflow", o.pipeline.overflow,
+        {{"wait", OverflowPolicy::kWait}, {"drop_oldest", OverflowPolicy::kDropOldest}},
+        "a robot's queue is full: wait (back-pressure, nothing lost) or drop_oldest (bounded latency, "
+        "counted)");
+    t.add("max-robots", o.pipeline.max_robots, "robots served at most").range(1, 100000);
+    t.add("max-points", o.limits.max_points, "larger scans are rejected").range(1, 1e8);
+    t.add("update-threads", o.update_threads, "threads of the map update (0: all cores)").range(0, 1024);
+    t.add("update-nice", o.update_nice,
+          "nice value of the map update while scans are on time (-1: 19 if the server may raise it back "
+          "when a scan is late, else 0)")
+        .range(-1, 19);
+    t.add("update-catch-up-ms", o.update_catch_up_ms,
+          "a scan this late is updated at normal priority (queries cannot starve the map)")
+        .range(0, 1e6);
+    t.add("update-late-nice", o.update_late_nice,
+          "nice value of a late scan's update (below 0: less map lag under query floods; needs CAP_SYS_NICE)")
+        .range(-20, 0);
+  }
+  {
+    cli::OptionTable& t =
+        tables.emplace_back("Storage: save and load requests name files in the map directory, never paths");
+    t.add("data-dir", o.data_dir, "the service's data directory");
+    t.add("map-dir", o.map_dir, "where saves and loads go (empty: DATA_DIR/maps)");
+    t.add("max-map-file-bytes", o.max_map_file_bytes, "largest map file a load reads").range(1, 1e12);
+  }
+  {
+    cli::OptionTable& t = tables.emplace_back("Shutdown (SIGINT / SIGTERM)");
+    t.add("save-on-exit", o.save_on_exit,
+          "save the map to this path (.bt or .ot) on shutdown (empty: do not)");
+    t.add("drop-on-exit", o.drop_on_exit, "drop queued scans (counted) instead of mapping them first");
+  }
+  return tables;
+}
+
+void validateServiceOptions(const ServiceOptions& options) {
+  ServiceOptions copy = options;  // the tables bind to fields; nothing is changed
+  std::vector<cli::OptionTable> tables = serviceOptionTables(copy);
+  tables.push_back(cli::mapOptions(copy.map));
+  tables.push_back(cli::updateOptions(copy.update));
+  for (const cli::OptionTable& t : tables) {
+    if (const std::string why = t.validate(); !why.empty()) throw std::invalid_argument(why);
+  }
+}
+
+}  // namespace densemap::server
