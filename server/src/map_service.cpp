@@ -126,7 +126,7 @@ CommandResult MapService::load(const LoadCommand& c) {
 
 CommandResult MapService::execute(const Command& command, const std::string& requester) {
   CommandResult r;
-  try {
+  reportingErrors(r, [&] {
     if (const auto* s = std::get_if<SaveCommand>(&command)) {
       r = save(*s);
     } else if (const auto* l = std::get_if<LoadCommand>(&command)) {
@@ -136,13 +136,7 @@ CommandResult MapService::execute(const Command& command, const std::string& req
         boxKeys(geometry::KeyConverter(options_.map.resolution), b->min, b->max);  // a clear error now
       r = runChange(std::make_shared<MapChange>(command));
     }
-  } catch (const RequestError& e) {
-    r.status = e.status();
-    r.message = e.what();
-  } catch (const std::exception& e) {
-    r.status = Status::kFailed;
-    r.message = e.what();
-  }
+  });
   const std::string who = requester.empty() ? "an unnamed client" : requester;
   if (r.status == Status::kOk) {
     ++commands_done_;

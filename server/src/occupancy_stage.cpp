@@ -38,7 +38,7 @@ StageResult OccupancyStage::process(ScanJob& job) {
 
 void OccupancyStage::applyChange(MapChange& change) {
   CommandResult& r = change.result;
-  try {
+  reportingErrors(r, [&] {
     if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
       const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
       store_.write([&](map::OccupancyMap& m) { r.cells_changed = m.eraseBox(lo, hi); });
@@ -61,13 +61,7 @@ void OccupancyStage::applyChange(MapChange& change) {
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
     r.map_version = store_.version();
-  } catch (const RequestError& e) {
-    r.status = e.status();
-    r.message = e.what();
-  } catch (const std::exception& e) {
-    r.status = Status::kFailed;
-    r.message = e.what();
-  }
+  });
 }
 
 }  // namespace densemap::server

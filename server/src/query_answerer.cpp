@@ -99,7 +99,7 @@ MapSummary mapSummary(const map::OccupancyMap& map, std::uint64_t version) {
 Answer QueryAnswerer::answer(const Query& q) {
   const auto t0 = std::chrono::steady_clock::now();
   Answer a;
-  try {
+  reportingErrors(a, [&] {
     const Layer layer = layerOf(q);
     if (layer != Layer::kOccupancy && dense_ == nullptr) {
       a.status = Status::kLayerUnavailable;
@@ -115,13 +115,7 @@ Answer QueryAnswerer::answer(const Query& q) {
     } else {
       stats(a);
     }
-  } catch (const RequestError& e) {
-    a.status = e.status();
-    a.message = e.what();
-  } catch (const std::exception& e) {
-    a.status = Status::kFailed;
-    a.message = e.what();
-  }
+  });
   latency_.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   if (a.status == Status::kOk) {
     ++answered_;

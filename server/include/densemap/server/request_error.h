@@ -18,4 +18,19 @@ class RequestError : public std::runtime_error {
   Status status_;
 };
 
+/// Runs f; a RequestError, or any other exception (as kFailed), becomes `out.status` and `out.message`
+/// (an Answer or a CommandResult): the service's doors never throw.
+template <class Result, class F>
+void reportingErrors(Result& out, F&& f) {
+  try {
+    f();
+  } catch (const RequestError& e) {
+    out.status = e.status();
+    out.message = e.what();
+  } catch (const std::exception& e) {
+    out.status = Status::kFailed;
+    out.message = e.what();
+  }
+}
+
 }  // namespace densemap::server
