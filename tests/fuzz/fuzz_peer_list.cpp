@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "densemap/msg/dds_node.h"
 #include "densemap/msg/peer_list.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
