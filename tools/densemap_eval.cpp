@@ -25,6 +25,7 @@
 #include "densemap/eval/classification_metrics.h"
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/map/map_factory.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/image.h"
 
@@ -54,8 +55,11 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
   std::string source, scans, methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
-  double resolution = 0.1, max_range = -1.0, free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0,
-         min_occupied_radius = 0.0;
+  double free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0, min_occupied_radius = 0.0;
+  // The map and update options are the shared tables (also the kernel layers' cell size and ray cut).
+  map::MapOptions map_options;
+  map_options.resolution = 0.1;
+  update::UpdateOptions update_options;
   bool as_json = false, iso_free = false, equal_time = false;
   std::string roc_png, predictions_csv;
   int threads = 0, beam_step = 0;
@@ -63,11 +67,7 @@ int main(int argc, char** argv) {
   std::string densify_method = "none", densify_weights;
   app.add_option("--source", source, "scan source (see densemap-map --help)")->required();
   app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  app.add_option("--resolution", resolution, "cell size in metres")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
   app.add_option("--methods", methods_text, "comma-separated: exact, bgk, akimap")->capture_default_str();
-  app.add_option("--max-range", max_range, "cut rays at this range (<0: unlimited)")->capture_default_str();
   app.add_option("--free-sample-distance", free_distance,
                  "kernel methods: one free sample per this many metres")
       ->capture_default_str();
@@ -103,9 +103,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "bilinear", "iln"}));
   app.add_option("--densify-weights", densify_weights, "ILN weights (default models/iln/iln_compact.pt)");
+  auto map_table = cli::mapOptions(map_options);
+  auto update_table = cli::updateOptions(update_options);
   auto logging_table = cli::loggingOptions(log_level);
-  cli::addToApp(app, {&logging_table});
-  if (const auto rc = cli::parse(app, argc, argv, {&logging_table})) return *rc;
+  cli::addToApp(app, {&map_table, &update_table, &logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&map_table, &update_table, &logging_table})) return *rc;
+  const double resolution = map_options.resolution, max_range = update_options.max_range;
   cli::setupLogging(log_level);
   cli::setThreads(threads);
 
@@ -185,17 +188,15 @@ int main(int argc, char** argv) {
       }
       std::vector<std::optional<float>> pred(test_points.size());
       if (m == "exact") {
-        map::GridMap grid(resolution);
-        update::UpdateOptions uo;
-        uo.max_range = max_range;
-        update::UpdateEngine engine(uo);
+        const auto grid = map::makeMap(map_options);
+        update::UpdateEngine engine(update_options);
         const auto t0 = Clock::now();
-        for (const auto& s : used) engine.insert(grid, s.map_points, s.origin);
+        for (const auto& s : used) engine.insert(*grid, s.map_points, s.origin);
         r.seconds = secondsSince(t0);
         for (std::size_t i = 0; i < test_points.size(); ++i) {
           geometry::VoxelKey k;
-          if (!grid.converter().toKey(test_points[i], k)) continue;
-          if (const auto v = grid.logOdds(k)) pred[i] = map::OccupancyParams::probability(*v);
+          if (!grid->converter().toKey(test_points[i], k)) continue;
+          if (const auto v = grid->logOdds(k)) pred[i] = map::OccupancyParams::probability(*v);
         }
       } else if (m == "bgk" || m == "akimap") {
         dense::DenseLayerOptions lo;
