@@ -23,6 +23,7 @@ dds=(--domain "$domain" --loopback)
 
 echo "== starting densemap-server on DDS domain $domain (loopback; log in out/server.log)"
 "$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" --densify iln \
+  --map-dir "$out/maps" \
   > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true' EXIT
@@ -46,6 +47,11 @@ query ray --origin 0,0,1.7 --direction 0,1,0 --max-range 60 --ignore-unknown
 echo "-- occupied cells in a 10 m box around the origin:"
 query box --min -5,-5,-1 --max 5,5,4 | head -1
 query render --output "$out/demo_map.png" --height 1.0
+echo "-- commands (their own DDS topic): save the map in the server's map directory, forget a box, load it back"
+query save demo.ot
+query clear --min -5,-5,-1 --max 5,5,4
+query load demo.ot
+query box --min -5,-5,-1 --max 5,5,4 | head -1
 
 echo "== stopping the server (SIGINT: drains its queues and saves the map)"
 kill -INT "$server"
@@ -53,4 +59,5 @@ wait "$server"
 trap - EXIT
 tail -n 3 "$out/server.log"
 echo "== done: out/demo_map.png (left: occupied cells from above by height; right: probability at z = 1 m),"
-echo "   out/demo_map.bt (open with octovis), out/replay.json (counts and latencies), out/server.log"
+echo "   out/demo_map.bt (open with octovis), out/maps/demo.ot (saved on request), out/replay.json (counts"
+echo "   and latencies), out/server.log"
