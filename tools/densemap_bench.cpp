@@ -76,7 +76,8 @@ OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, doub
   return r;
 }
 
-std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend, double res) {
+std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend,
+                                           double res) {  // sweeps: one backend, one resolution
   return map::makeMap({backend, res, {}});
 }
 

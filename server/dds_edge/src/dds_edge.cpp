@@ -195,11 +195,11 @@ void DdsEdge::queryLoop() {
     }
     auto decoded = toQuery(rq);
     if (!std::holds_alternative<Query>(decoded)) service_.countRefusedQuery();
-    const Answer a = std::holds_alternative<Query>(decoded) ? service_.answer(std::get<Query>(decoded))
-                                                            : std::get<Answer>(decoded);
+    Answer a = std::holds_alternative<Query>(decoded) ? service_.answer(std::get<Query>(decoded))
+                                                      : std::move(std::get<Answer>(decoded));
     if (a.status != Status::kOk)
       spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), a.message);
-    msg::QueryReply rp = toReply(rq, a);
+    msg::QueryReply rp = toReply(rq, std::move(a));
     reply_writer_->write(&rp);
   }
 }

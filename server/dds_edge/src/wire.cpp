@@ -141,16 +141,16 @@ msg::MapStatistics toWire(const MapSummary& s) {
   return m;
 }
 
-msg::QueryReply toReply(const msg::QueryRequest& rq, const Answer& a) {
+msg::QueryReply toReply(const msg::QueryRequest& rq, Answer a) {
   msg::QueryReply rp;
   rp.client_id(rq.client_id());
   rp.request_id(rq.request_id());
   rp.kind(rq.kind());
   rp.status(toWire(a.status));
-  rp.message(a.message);
+  rp.message(std::move(a.message));
   rp.map_version(a.map_version);
-  if (const auto* p = std::get_if<PointsAnswer>(&a.result)) {
-    rp.probabilities(p->probabilities);
+  if (auto* p = std::get_if<PointsAnswer>(&a.result)) {
+    rp.probabilities(std::move(p->probabilities));
     rp.states().resize(p->states.size());
     std::transform(p->states.begin(), p->states.end(), rp.states().begin(), [](CellState c) {
       return c == CellState::kOccupied ? msg::CELL_OCCUPIED

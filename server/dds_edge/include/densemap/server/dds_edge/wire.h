@@ -23,7 +23,8 @@ msg::ScanAck toAck(const ScanJob& job, ScanOutcome outcome, const std::string& w
 /// The query a request asks, or the answer to a request that cannot be one (unknown kind or layer,
 /// points not packed x y z).
 std::variant<Query, Answer> toQuery(const msg::QueryRequest& rq);
-msg::QueryReply toReply(const msg::QueryRequest& rq, const Answer& answer);
+/// Takes the answer by value: its arrays are moved into the reply (the query path's hot copy otherwise).
+msg::QueryReply toReply(const msg::QueryRequest& rq, Answer answer);
 
 /// The command a request asks, or its result when it cannot be one. ADMIN_PING gives std::monostate.
 std::variant<std::monostate, Command, CommandResult> toCommand(const msg::AdminRequest& rq);
