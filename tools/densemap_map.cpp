@@ -22,7 +22,8 @@ using namespace densemap;
 int main(int argc, char** argv) {
   CLI::App app{
       "densemap-map: build an occupancy map from scans (exact log-odds map, super rays + culling region)"};
-  std::string source = "sim", scans, output, log_level = "info";
+  cli::SourceSelection source;
+  std::string output, log_level = "info";
   map::MapOptions map_options;
   map_options.backend = "octree";  // this tool writes OctoMap files by default
   update::UpdateOptions opt;
@@ -33,12 +34,8 @@ int main(int argc, char** argv) {
   auto update_table = cli::updateOptions(opt);
   auto logging_table = cli::loggingOptions(log_level);
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
-  app.add_option("--source", source,
-                 "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD "
-                 "directory or .graph")
-      ->capture_default_str();
-  app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
-  cli::addToApp(app, {&map_table, &update_table, &logging_table});
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &map_table, &update_table, &logging_table});
   app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
       ->capture_default_str();
   app.add_option("--closure-sample", closure_every,
@@ -46,14 +43,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--output", output, "save the map: .bt or .ot (octree backend)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
-  if (const auto rc = cli::parse(app, argc, argv, {&map_table, &update_table, &logging_table})) return *rc;
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &update_table, &logging_table}))
+    return *rc;
   densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);
 
   try {
-    auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans, src->size());
+    auto src = io::openSource(source.source, source.options);
+    const auto range = cli::parseScanRange(source.scans, src->size());
     spdlog::info("source: {}", src->describe());
     opt.super_rays.threshold = threshold;
     opt.in_scan_closure = closure_every > 0;

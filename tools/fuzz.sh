@@ -1,27 +1,65 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz, with clang) and runs each for SECONDS (default 20); exits 1 when
-# one finds a crash (its input is left in build-fuzz/). Installs clang if it is missing.
-#   tools/fuzz.sh [SECONDS]
+# Builds the libFuzzer targets (tests/fuzz, clang with AddressSanitizer and UndefinedBehaviorSanitizer) and
+# runs each for SECONDS (default 20), or only the targets named; exits 1 when one finds a crash (its input
+# is left in build-fuzz/). Seeds: tests/fuzz/corpus/TARGET, DDS samples serialized by make_dds_seeds, and
+# small files from ../shared/data when it is there (copied into build-fuzz, never into the repository).
+# Installs clang and its fuzzer runtime if they are missing. Prints one summary line per target.
+#   tools/fuzz.sh [SECONDS] [TARGET...]
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${1:-20}"
-[[ "$seconds" =~ ^[0-9]+$ ]] || { echo "usage: tools/fuzz.sh [SECONDS]" >&2; exit 2; }
-command -v clang++ > /dev/null || { echo "fuzz: installing clang"; DEBIAN_FRONTEND=noninteractive apt-get install -y -qq clang > /dev/null; }
-cmake -S "$root/tests/fuzz" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ > /dev/null
+[[ "$seconds" =~ ^[0-9]+$ ]] || { echo "usage: tools/fuzz.sh [SECONDS] [TARGET...]" >&2; exit 2; }
+shift || true
+if ! command -v clang++ > /dev/null || ! dpkg -s libclang-rt-14-dev > /dev/null 2>&1; then
+  echo "fuzz: installing clang and libclang-rt-14-dev"
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq clang libclang-rt-14-dev > /dev/null
+fi
+cmake -S "$root/tests/fuzz" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang > /dev/null
 cmake --build "$root/build-fuzz"
 cd "$root/build-fuzz"
-for target in fuzz_*; do
+./make_dds_seeds seeds
+data="${DENSEMAP_DATA_DIR:-$root/../shared/data}"
+seed_from_data() {  # TARGET FILE...: copies the files that exist and are small into the target's seeds
+  local target="$1"; shift
+  mkdir -p "seeds/$target"
+  for f in "$@"; do
+    [ -f "$f" ] && [ "$(stat -c %s "$f")" -le 300000 ] && cp "$f" "seeds/$target/data-$(basename "$(dirname "$f")")-$(basename "$f")"
+  done
+  return 0
+}
+if [ -d "$data" ]; then
+  seed_from_data fuzz_pcd_file "$data"/la3dm/sim_structured/sim_structured_1.pcd "$data"/la3dm/sim_unstructured/sim_unstructured_2.pcd
+  seed_from_data fuzz_scan_graph "$data"/octomap/*.graph
+  mkdir -p seeds/fuzz_pose_file
+  for f in "$data"/kitti00/poses/0.txt "$data"/hilti2023/poses/5.txt; do
+    [ -f "$f" ] && { printf '\x00'; cat "$f"; } > "seeds/fuzz_pose_file/data-$(basename "$(dirname "$(dirname "$f")")")"
+  done
+else
+  echo "fuzz: no $data; seeds from tests/fuzz/corpus only"
+fi
+# Malloc stack traces dominate the cost of small inputs; crashes still get full traces.
+export ASAN_OPTIONS="${ASAN_OPTIONS:-malloc_context_size=2}"
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_*)
+status=0
+for target in "${targets[@]}"; do
   [ -x "$target" ] || continue
-  echo "fuzz: $target for $seconds s"
-  # Seeds (tests/fuzz/corpus/TARGET, copied so the run's finds stay in build-fuzz) and a dictionary.
-  args=()
-  if [ -d "$root/tests/fuzz/corpus/$target" ]; then
-    mkdir -p "corpus-$target" && cp -n "$root/tests/fuzz/corpus/$target"/* "corpus-$target/"
-    args+=("corpus-$target")
-  fi
+  mkdir -p "corpus-$target"
+  for seeds in "$root/tests/fuzz/corpus/$target" "seeds/$target"; do
+    [ -d "$seeds" ] && cp -n "$seeds"/* "corpus-$target/" 2> /dev/null || true
+  done
+  args=("corpus-$target")
   [ -f "$root/tests/fuzz/$target.dict" ] && args+=("-dict=$root/tests/fuzz/$target.dict")
-  status=0
-  "./$target" -max_total_time="$seconds" -print_final_stats=1 "${args[@]}" > "$target.log" 2>&1 || status=$?
-  grep -E "stat::number_of_executed_units|ERROR|SUMMARY" "$target.log" || true
-  [ "$status" -eq 0 ] || { echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2; exit 1; }
+  rc=0
+  "./$target" -max_total_time="$seconds" -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" \
+    > "$target.log" 2>&1 || rc=$?
+  runs=$(grep -o "stat::number_of_executed_units: [0-9]*" "$target.log" | awk '{print $2}')
+  crashes=$(grep -c "Test unit written" "$target.log" || true)
+  echo "fuzz: $target ${seconds} s: ${runs:-?} executions, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
+  if [ "$rc" -ne 0 ]; then
+    grep -E "ERROR|SUMMARY|runtime error|Test unit written" "$target.log" | head -5
+    echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2
+    status=1
+  fi
 done
+exit $status

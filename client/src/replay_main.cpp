@@ -63,8 +63,8 @@ using util::percentile;
 int main(int argc, char** argv) {
   CLI::App app{"densemap-replay: publish scans from a source as robots to a densemap-server over DDS"};
   msg::DdsOptions dds;
-  std::string source = "sim", scans, prefix = "robot", offset_text = "0,0,0", summary_json,
-              log_level = "info";
+  cli::SourceSelection source;
+  std::string prefix = "robot", offset_text = "0,0,0", summary_json, log_level = "info";
   int robots = 1, loops = 1, query_clients = 0, first_robot = 0, beam_step = 0;
   std::size_t max_scans = 0;
   double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
@@ -73,13 +73,8 @@ int main(int argc, char** argv) {
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   auto dds_table = msg::ddsOptions(dds);
   auto logging_table = cli::loggingOptions(log_level);
-  cli::addToApp(app, {&dds_table, &logging_table});
-  app.add_option(
-         "--source", source,
-         "scan source: 'sim[:key=value,...]', a sequence directory, KITTI layout, la3dm PCD directory or "
-         ".graph")
-      ->capture_default_str();
-  app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &dds_table, &logging_table});
   app.add_option(
          "--keep-every-nth-beam", beam_step,
          "send every n-th beam of each scan (4: a 16-beam LiDAR from a 64-beam one), with that geometry")
@@ -142,7 +137,7 @@ int main(int argc, char** argv) {
   app.add_option("--scan-log", scan_log_path,
                  "append one JSON line per scan sent, refused by DDS and acknowledged, as it happens (kept "
                  "when the process is killed; the cross-host test reads it)");
-  if (const auto rc = cli::parse(app, argc, argv, {&dds_table, &logging_table})) return *rc;
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &dds_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
 
   try {
@@ -155,8 +150,8 @@ int main(int argc, char** argv) {
     std::vector<io::Scan> data;
     std::string described = "none (query clients only)";
     if (robots > 0) {
-      auto src = io::openSource(source);
-      const auto range = cli::parseScanRange(scans, src->size());
+      auto src = io::openSource(source.source, source.options);
+      const auto range = cli::parseScanRange(source.scans, src->size());
       described = src->describe();
       spdlog::info("source: {}", described);
       cli::Progress progress("reading", range.last - range.first + 1);

@@ -1,11 +1,14 @@
 // Bad input gets an error status or a rejection counter, the server stays up, and rejected input leaves
 // the map unchanged: after every case the served map still equals the offline map of the accepted scans.
+#include <cstring>
 #include <limits>
+#include <thread>
 
 #include <filesystem>
 
 #include <gtest/gtest.h>
 
+#include "densemap/msg/checked_type.h"
 #include "service_harness.h"
 
 namespace densemap::test {
@@ -161,6 +164,67 @@ TEST_F(BadInput, MalformedQueriesGetAnErrorStatusAndTheServerStaysUp) {
   const auto stats = h_->server->statistics();
   EXPECT_EQ(stats.queries_failed(), 5u);
   EXPECT_EQ(stats.commands_failed(), 6u);
+}
+
+/// Writes arbitrary bytes as samples of a topic's type (same type name, no decoding): what a broken or
+/// hostile participant on the domain can send.
+class RawBytesType : public eprosima::fastdds::dds::TopicDataType {
+ public:
+  explicit RawBytesType(const std::string& type_name) {
+    setName(type_name.c_str());
+    m_typeSize = 1 << 16;
+    m_isGetKeyDefined = false;
+  }
+  bool serialize(void* data, eprosima::fastrtps::rtps::SerializedPayload_t* payload) override {
+    const auto& bytes = *static_cast<const std::string*>(data);
+    if (bytes.size() > payload->max_size) return false;
+    std::memcpy(payload->data, bytes.data(), bytes.size());
+    payload->length = static_cast<std::uint32_t>(bytes.size());
+    return true;
+  }
+  bool deserialize(eprosima::fastrtps::rtps::SerializedPayload_t*, void*) override { return false; }
+  std::function<std::uint32_t()> getSerializedSizeProvider(void* data) override {
+    return [data] { return static_cast<std::uint32_t>(static_cast<const std::string*>(data)->size()); };
+  }
+  void* createData() override { return nullptr; }  // write-only
+  void deleteData(void*) override {}
+  bool getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t*, bool) override { return false; }
+};
+
+TEST_F(BadInput, UndecodableDdsSamplesAreRefusedAndCountedTheServerStaysUp) {
+  start(136);
+  msg::DdsOptions dds;
+  dds.domain = 136;
+  dds.loopback = true;
+  dds.name = "hostile";
+  msg::DdsNode node(dds);
+  auto* topic = node.topic(
+      msg::kScanTopic,
+      eprosima::fastdds::dds::TypeSupport(std::make_unique<RawBytesType>("densemap::msg::Scan").release()));
+  auto* writer = node.writer(topic, msg::kScanWriterProfile);
+  ASSERT_NE(writer, nullptr);
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  eprosima::fastdds::dds::PublicationMatchedStatus matched;
+  while (writer->get_publication_matched_status(matched) == ReturnCode_t::RETCODE_OK &&
+         matched.current_count == 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(20ms);
+  ASSERT_GT(matched.current_count, 0) << "the raw writer did not match the server's scan reader";
+  const std::uint64_t before = msg::undecodableSamples();
+  // Not CDR at all (first encapsulation byte non-zero: Fast CDR throws), a CDR header and nothing else, and
+  // a string claiming 2^31 bytes.
+  std::vector<std::string> samples = {std::string("\x7f\x01\x00\x00garbage", 11),
+                                      std::string("\x00\x01\x00\x00", 4),
+                                      std::string("\x00\x01\x00\x00\x00\x00\x00\x80xx", 10)};
+  for (auto& s : samples) ASSERT_TRUE(writer->write(&s));
+  while (msg::undecodableSamples() < before + samples.size() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(msg::undecodableSamples(), before + samples.size());
+  node.remove(writer);
+  // Still serving: a good scan is mapped and acknowledged, the map holds exactly the accepted scans.
+  EXPECT_EQ(h_->replay({scans_[1]}, "robot-0", 1).applied, 2u);  // seq 0 (start) and 1
+  accepted_.push_back(scans_[1]);
+  expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+  EXPECT_EQ(h_->server->statistics().samples_undecodable(), msg::undecodableSamples());
 }
 
 TEST_F(BadInput, ClearBoxAndResetChangeOnlyWhatTheyAsk) {

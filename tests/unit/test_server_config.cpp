@@ -77,6 +77,17 @@ TEST(ServerConfig, FlagsAndEnumerationsFillTheOptions) {
   EXPECT_EQ(c.edge.query_threads, 4);
 }
 
+TEST(ServerConfig, AMisspeltKeyInTheFileIsAnError) {
+  const std::string path = ::testing::TempDir() + "/densemap_typo.toml";
+  std::ofstream(path) << "resolutoin = 0.3\n";
+  try {
+    parse({"--config", path});
+    ADD_FAILURE() << "a file with an unknown key was accepted";
+  } catch (const CLI::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("resolutoin"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ServerConfig, OutOfRangeValuesAreRefusedByName) {
   for (const auto& [flag, value] :
        std::vector<std::pair<std::string, std::string>>{{"--resolution", "-1"},

@@ -36,10 +36,12 @@ ScanRange parseScanRange(const std::string& text, std::size_t n) {
   if (r.first >= n)
     throw std::invalid_argument("scan range '" + text + "' starts past the source's " + std::to_string(n) +
                                 " scans");
-  if (r.last >= n) {
-    spdlog::warn("scan range {} clipped to the source's last scan {}", text, n - 1);
-    r.last = n - 1;
-  }
+  // An explicit LAST past the end is an error: quietly mapping fewer scans than asked for hides a missing
+  // file. "FIRST:" (open end) means "to the last scan".
+  if (r.last >= n)
+    throw std::invalid_argument("scan range '" + text + "' ends past the source's last scan " +
+                                std::to_string(n - 1) + " (" + std::to_string(n) +
+                                " scans); give FIRST: to map to the end");
   return r;
 }
 

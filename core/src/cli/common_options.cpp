@@ -2,6 +2,20 @@
 
 namespace densemap::cli {
 
+OptionTable sourceOptions(SourceSelection& s) {
+  OptionTable t("Scan source");
+  t.add(
+      "source", s.source,
+      "'sim[:key=value,...]' (built-in simulator), a sequence directory (clouds/ + poses/), a KITTI odometry "
+      "layout (velodyne/ + poses.txt + calib.txt), a directory of <name>_<k>.pcd with VIEWPOINT origins "
+      "(la3dm), "
+      "one .pcd, or an OctoMap .graph");
+  t.add("scans", s.scans, "scan range FIRST:LAST (inclusive), N, or FIRST: (to the end); empty: all");
+  t.add("allow-gaps", s.options.allow_gaps,
+        "map the scans a numbered sequence holds when some files are missing (default: a gap is an error)");
+  return t;
+}
+
 OptionTable loggingOptions(std::string& level) {
   OptionTable t("Logging");
   t.add("log-level", level, "how much to log")

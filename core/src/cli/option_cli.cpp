@@ -7,6 +7,8 @@
 namespace densemap::cli {
 
 void addToApp(CLI::App& app, const std::vector<OptionTable*>& tables) {
+  // A misspelt key in a configuration file is an error, not an option silently left at its default.
+  app.allow_config_extras(CLI::config_extras_mode::error);
   for (OptionTable* t : tables) {
     for (OptionSpec& o : t->options()) {
       std::string help = o.help;

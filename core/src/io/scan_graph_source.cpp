@@ -5,8 +5,8 @@
 
 #include <cmath>
 #include <cstring>
-#include <fstream>
-#include <iterator>
+
+#include "densemap/io/text_parse.h"
 
 namespace densemap::io {
 
@@ -14,7 +14,7 @@ namespace {
 
 class Reader {
  public:
-  Reader(std::string path, std::vector<char> bytes) : path_(std::move(path)), bytes_(std::move(bytes)) {}
+  Reader(const std::string& path, std::string_view bytes) : path_(path), bytes_(bytes) {}
   template <class T>
   T get(const char* what) {
     if (remaining() < sizeof(T)) fail(std::string("truncated while reading ") + what);
@@ -35,17 +35,16 @@ class Reader {
   }
 
  private:
-  std::string path_;
-  std::vector<char> bytes_;
+  const std::string& path_;
+  std::string_view bytes_;
   std::size_t pos_ = 0;
 };
 
 }  // namespace
 
-ScanGraphSource::ScanGraphSource(const std::string& path) : path_(path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw SourceError(path + ": cannot open scan graph");
-  Reader r(path, std::vector<char>(std::istreambuf_iterator<char>(in), {}));
+std::vector<Scan> parseScanGraph(std::string_view bytes, const std::string& name) {
+  Reader r(name, bytes);
+  std::vector<Scan> scans;
   const auto nodes = r.get<std::uint32_t>("node count");
   constexpr std::size_t kMinNodeBytes = 4 + 4 + 24 + 4 + 32 + 4;
   if (nodes > r.remaining() / kMinNodeBytes)
@@ -57,27 +56,37 @@ ScanGraphSource::ScanGraphSource(const std::string& path) : path_(path) {
     s.index = n;
     s.frame = PointFrame::kSensor;
     s.points.reserve(count);
-    for (std::uint32_t i = 0; i < count; ++i) s.points.push_back(r.vec3("point").cast<float>());
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const Eigen::Vector3f p = r.vec3("point").cast<float>();
+      if (!p.allFinite())
+        r.fail("node " + std::to_string(n) + " point " + std::to_string(i) + " is not finite");
+      s.points.push_back(p);
+    }
     const Eigen::Vector3d t = r.vec3("pose translation");
     if (r.get<std::int32_t>("pose rotation") != 4) r.fail("bad quaternion header");
     double q[4];
     for (double& v : q) v = r.get<double>("pose rotation");
     Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
     if (!t.allFinite() || !std::isfinite(quat.norm()) || std::abs(quat.norm() - 1.0) > 1e-3)
-      r.fail("node " + std::to_string(n) + " has an invalid pose");
+      r.fail("node " + std::to_string(n) +
+             " has an invalid pose (translation not finite or quaternion not unit)");
     s.pose = Eigen::Isometry3d::Identity();
     s.pose.linear() = quat.normalized().toRotationMatrix();
     s.pose.translation() = t;
     r.get<std::uint32_t>("node id");
-    scans_.push_back(std::move(s));
+    scans.push_back(std::move(s));
   }
   // Edges (constraints between nodes) are not needed for mapping; the edge count is still checked.
   if (r.remaining() >= 4) {
     const auto edges = r.get<std::uint32_t>("edge count");
     if (edges > r.remaining() / 8) r.fail("edge count exceeds the file size");
   }
-  if (scans_.empty()) throw SourceError(path + ": scan graph holds no scans");
+  if (scans.empty()) throw SourceError(name + ": scan graph holds no scans");
+  return scans;
 }
+
+ScanGraphSource::ScanGraphSource(const std::string& path)
+    : path_(path), scans_(parseScanGraph(readFileBytes(path, std::size_t{1} << 34, "scan graph"), path)) {}
 
 std::string ScanGraphSource::describe() const {
   return "OctoMap scan graph " + path_ + " (" + std::to_string(scans_.size()) + " scans)";

@@ -12,7 +12,7 @@ namespace densemap::io {
 
 namespace fs = std::filesystem;
 
-std::unique_ptr<ScanSource> openSource(const std::string& spec) {
+std::unique_ptr<ScanSource> openSource(const std::string& spec, const SourceOptions& options) {
   if (spec == "sim" || spec.rfind("sim:", 0) == 0) {
     try {
       return std::make_unique<LidarSimulator>(
@@ -24,13 +24,13 @@ std::unique_ptr<ScanSource> openSource(const std::string& spec) {
   if (!fs::exists(spec))
     throw SourceError(spec + ": no such file or directory (give a dataset path, or 'sim' for the simulator)");
   if (fs::is_directory(spec)) {
-    if (fs::is_directory(spec + "/clouds")) return std::make_unique<SequenceDirectorySource>(spec);
-    if (fs::is_directory(spec + "/velodyne")) return std::make_unique<KittiOdometrySource>(spec);
-    return std::make_unique<ViewpointPcdSource>(spec);
+    if (fs::is_directory(spec + "/clouds")) return std::make_unique<SequenceDirectorySource>(spec, options);
+    if (fs::is_directory(spec + "/velodyne")) return std::make_unique<KittiOdometrySource>(spec, options);
+    return std::make_unique<ViewpointPcdSource>(spec, options);
   }
   const std::string ext = fs::path(spec).extension().string();
   if (ext == ".graph") return std::make_unique<ScanGraphSource>(spec);
-  if (ext == ".pcd") return std::make_unique<ViewpointPcdSource>(spec);
+  if (ext == ".pcd") return std::make_unique<ViewpointPcdSource>(spec, options);
   throw SourceError(spec + ": unknown source type (expected a directory, a .pcd, a .graph, or 'sim')");
 }
 

@@ -1,31 +1,21 @@
 #include "densemap/io/viewpoint_pcd_source.h"
 
-#include <algorithm>
 #include <filesystem>
-#include <regex>
 
+#include "densemap/io/numbered_files.h"
 #include "densemap/io/pcd_file.h"
 
 namespace densemap::io {
 
 namespace fs = std::filesystem;
 
-ViewpointPcdSource::ViewpointPcdSource(const std::string& path) : path_(path) {
+ViewpointPcdSource::ViewpointPcdSource(const std::string& path, const SourceOptions& options) : path_(path) {
   if (fs::is_regular_file(path)) {
     files_.push_back(path);
     return;
   }
   if (!fs::is_directory(path)) throw SourceError(path + ": no such file or directory");
-  static const std::regex numbered(R"((.*)_(\d+)\.pcd)");
-  std::vector<std::pair<long, std::string>> found;
-  for (const auto& e : fs::directory_iterator(path)) {
-    std::smatch m;
-    const std::string name = e.path().filename().string();
-    if (std::regex_match(name, m, numbered)) found.emplace_back(std::stol(m[2].str()), e.path().string());
-  }
-  std::sort(found.begin(), found.end());
-  for (auto& f : found) files_.push_back(f.second);
-  if (files_.empty()) throw SourceError(path + ": no <name>_<k>.pcd files found");
+  for (auto& f : listNumberedFiles(path, ".pcd", options.allow_gaps)) files_.push_back(std::move(f.path));
 }
 
 Scan ViewpointPcdSource::read(std::size_t i) const {
@@ -34,9 +24,10 @@ Scan ViewpointPcdSource::read(std::size_t i) const {
   Scan s;
   s.index = i;
   s.points = std::move(d.points);
+  s.nonfinite_points = d.nonfinite_points;
   s.frame = PointFrame::kWorld;
   s.pose = Eigen::Isometry3d::Identity();
-  s.pose.linear() = d.viewpoint_orientation.normalized().toRotationMatrix();
+  s.pose.linear() = d.viewpoint_orientation.toRotationMatrix();
   s.pose.translation() = d.viewpoint;
   return s;
 }

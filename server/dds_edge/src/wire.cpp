@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "densemap/msg/checked_type.h"
 #include "densemap/util/wall_clock.h"
 
 namespace densemap::server::dds_edge {
@@ -243,6 +244,7 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
   m.commands_done(s.commands_done);
   m.commands_failed(s.commands_failed);
   m.resident_bytes(s.resident_bytes);
+  m.samples_undecodable(msg::undecodableSamples());  // counted by the edge's readers, not the service
   return m;
 }
 

@@ -16,7 +16,8 @@ struct ScanRange {
   std::size_t last = 0;  ///< inclusive
 };
 
-/// Parses "FIRST:LAST" (inclusive), "N" (one scan) or "" (all); clamps LAST to the source's size.
+/// Parses "FIRST:LAST" (inclusive), "N" (one scan), "FIRST:" (to the end) or "" (all); a range past the
+/// source's end is an error.
 /// Throws std::invalid_argument with a message saying what is wrong.
 ScanRange parseScanRange(const std::string& text, std::size_t source_size);
 

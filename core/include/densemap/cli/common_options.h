@@ -6,11 +6,21 @@
 #include <string>
 
 #include "densemap/cli/option_table.h"
+#include "densemap/io/scan_source.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/update/update_engine.h"
 
 namespace densemap::cli {
 
+/// What to read: the source specification, the scan range and how gaps are treated.
+struct SourceSelection {
+  std::string source = "sim";
+  std::string scans;  ///< "FIRST:LAST", "N", "FIRST:" or "" (all)
+  io::SourceOptions options;
+};
+
+/// --source, --scans, --allow-gaps.
+OptionTable sourceOptions(SourceSelection& selection);
 /// --log-level.
 OptionTable loggingOptions(std::string& level);
 /// --backend, --resolution, --prob-hit, --prob-miss, --clamp-min, --clamp-max.

@@ -12,7 +12,8 @@
 
 namespace densemap::cli {
 
-/// Adds each table's options to `app`, grouped by section.
+/// Adds each table's options to `app`, grouped by section; a configuration-file key that is no option is
+/// an error.
 void addToApp(CLI::App& app, const std::vector<OptionTable*>& tables);
 
 /// Parses the command line (and --config), then commits and validates the tables. Returns the exit code

@@ -54,12 +54,14 @@ class KeyConverter {
 
   /// False when the coordinate lies outside the 16-bit key range.
   bool toKey(double coordinate, KeyCoord& key) const {
-    const int scaled = static_cast<int>(std::floor(resolution_factor_ * coordinate)) + kKeyCenter;
-    if (scaled >= 0 && static_cast<unsigned>(scaled) < 2u * kKeyCenter) {
+    // Range-checked in double before the conversion: OctoMap casts first, which is undefined behaviour for
+    // coordinates beyond int (found by fuzz_dds_scan); in range, the key is the same.
+    const double scaled = std::floor(resolution_factor_ * coordinate) + kKeyCenter;
+    if (scaled >= 0.0 && scaled < 2.0 * kKeyCenter) {
       key = static_cast<KeyCoord>(scaled);
       return true;
     }
-    return false;
+    return false;  // out of range, or NaN
   }
 
   bool toKey(const Vec3f& p, VoxelKey& key) const {

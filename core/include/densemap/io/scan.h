@@ -35,6 +35,8 @@ struct Scan {
   PointFrame frame = PointFrame::kSensor;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< world <- sensor
   std::optional<LidarGeometry> lidar;
+  /// Points the reader left out because a coordinate was NaN/Inf (organised PCD clouds mark gaps so).
+  std::size_t nonfinite_points = 0;
 
   Vec3f origin() const { return pose.translation().cast<float>(); }
   /// Points in the world frame (transformed in double, rounded to float once).

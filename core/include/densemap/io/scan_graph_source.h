@@ -1,6 +1,7 @@
 // OctoMap's binary scan graph (.graph): per node a point cloud in the sensor frame and a 6D pose.
 #pragma once
 
+#include <string_view>
 #include <vector>
 
 #include "densemap/io/scan_source.h"
@@ -19,5 +20,9 @@ class ScanGraphSource : public ScanSource {
   std::string path_;
   std::vector<Scan> scans_;
 };
+
+/// The scans of a .graph held in memory; SourceError (starting with `name`, giving the byte) on a count
+/// larger than the bytes that remain, a non-finite point or an invalid pose.
+std::vector<Scan> parseScanGraph(std::string_view bytes, const std::string& name);
 
 }  // namespace densemap::io

@@ -19,12 +19,18 @@ class ScanSource {
   virtual std::string describe() const = 0;
 };
 
+/// How a source treats what is not there.
+struct SourceOptions {
+  /// Map the scans a numbered sequence holds when some are missing (by default a gap is an error).
+  bool allow_gaps = false;
+};
+
 /// Opens a source from a specification:
 ///  - "sim" or "sim:key=value,..." — the built-in LiDAR simulator (see LidarSimulatorOptions);
 ///  - a directory with clouds/ and poses/ — sequence directory;
 ///  - a directory with velodyne/ and poses.txt — KITTI odometry layout;
 ///  - a directory of <name>_<k>.pcd files, or one .pcd — world-frame PCD with the VIEWPOINT as origin;
 ///  - a .graph file — OctoMap scan graph.
-std::unique_ptr<ScanSource> openSource(const std::string& spec);
+std::unique_ptr<ScanSource> openSource(const std::string& spec, const SourceOptions& options = {});
 
 }  // namespace densemap::io

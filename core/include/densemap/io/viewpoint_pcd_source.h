@@ -9,8 +9,8 @@ namespace densemap::io {
 
 class ViewpointPcdSource : public ScanSource {
  public:
-  /// `path` is a directory of numbered PCD files or a single PCD file.
-  explicit ViewpointPcdSource(const std::string& path);
+  /// `path` is a directory of numbered PCD files (no gaps unless options.allow_gaps) or a single PCD file.
+  explicit ViewpointPcdSource(const std::string& path, const SourceOptions& options = {});
   std::size_t size() const override { return files_.size(); }
   Scan read(std::size_t i) const override;
   std::string describe() const override;

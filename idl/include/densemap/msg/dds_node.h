@@ -19,6 +19,8 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "densemap/msg/checked_type.h"
+
 namespace densemap::msg {
 
 /// Topic names.
@@ -97,11 +99,12 @@ class DdsNode {
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
 };
 
-/// The type support of a generated PubSubType. Fast DDS takes ownership through a raw pointer; make_unique
-/// + release keeps `new` out of our code and the hand-over in one place.
+/// The type support of a generated PubSubType, with a decoder that refuses malformed samples instead of
+/// throwing (checked_type.h). Fast DDS takes ownership through a raw pointer; make_unique + release keeps
+/// `new` out of our code and the hand-over in one place.
 template <class PubSubType>
 eprosima::fastdds::dds::TypeSupport typeSupport() {
-  return eprosima::fastdds::dds::TypeSupport(std::make_unique<PubSubType>().release());
+  return eprosima::fastdds::dds::TypeSupport(std::make_unique<CheckedType<PubSubType>>().release());
 }
 
 /// True when `writer` has matched a reader and `reader` a writer: our side of a request-reply pair sees a
