@@ -5,11 +5,17 @@
 # small files from ../shared/data when it is there (copied into build-fuzz, never into the repository).
 # Installs clang and its fuzzer runtime if they are missing. Prints one summary line per target.
 #   tools/fuzz.sh [SECONDS] [TARGET...]
+#   tools/fuzz.sh --runs N [TARGET...]     (each target until N executions; the longer run in BENCHMARKS)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-seconds="${1:-20}"
-[[ "$seconds" =~ ^[0-9]+$ ]] || { echo "usage: tools/fuzz.sh [SECONDS] [TARGET...]" >&2; exit 2; }
-shift || true
+limit=(-max_total_time=20); what="20 s"
+if [ "${1:-}" = "--runs" ]; then
+  [[ "${2:-}" =~ ^[0-9]+$ ]] || { echo "usage: tools/fuzz.sh --runs N [TARGET...]" >&2; exit 2; }
+  limit=(-runs="$2"); what="$2 runs"; shift 2
+elif [ $# -gt 0 ]; then
+  [[ "$1" =~ ^[0-9]+$ ]] || { echo "usage: tools/fuzz.sh [SECONDS] [TARGET...]" >&2; exit 2; }
+  limit=(-max_total_time="$1"); what="$1 s"; shift
+fi
 if ! command -v clang++ > /dev/null || ! dpkg -s libclang-rt-14-dev > /dev/null 2>&1; then
   echo "fuzz: installing clang and libclang-rt-14-dev"
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq clang libclang-rt-14-dev > /dev/null
@@ -51,11 +57,12 @@ for target in "${targets[@]}"; do
   args=("corpus-$target")
   [ -f "$root/tests/fuzz/$target.dict" ] && args+=("-dict=$root/tests/fuzz/$target.dict")
   rc=0
-  "./$target" -max_total_time="$seconds" -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" \
+  start=$(date +%s)
+  "./$target" "${limit[@]}" -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" \
     > "$target.log" 2>&1 || rc=$?
   runs=$(grep -o "stat::number_of_executed_units: [0-9]*" "$target.log" | awk '{print $2}')
   crashes=$(grep -c "Test unit written" "$target.log" || true)
-  echo "fuzz: $target ${seconds} s: ${runs:-?} executions, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
+  echo "fuzz: $target ($what): ${runs:-?} executions in $(( $(date +%s) - start )) s, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
   if [ "$rc" -ne 0 ]; then
     grep -E "ERROR|SUMMARY|runtime error|Test unit written" "$target.log" | head -5
     echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2

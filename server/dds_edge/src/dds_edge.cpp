@@ -2,6 +2,7 @@
 
 #include <pthread.h>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
@@ -284,15 +285,42 @@ void DdsEdge::statisticsLoop() {
   }
 }
 
+std::size_t DdsEdge::refuseScansStillInDds() {
+  msg::Scan m;
+  fdds::SampleInfo info;
+  std::size_t refused = 0;
+  auto ack = [this](const ScanJob& j, ScanOutcome o, const std::string& why) { queueAck(j, o, why); };
+  while (scan_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
+    if (!info.valid_data) continue;
+    std::string why;
+    ScanJob job = toScanJob(m, why);
+    job.received_ns = msg::nowNs();
+    service_.refuse(job, "the server is shutting down; the scan was not mapped (send it to a running server)",
+                    ack);
+    ++refused;
+  }
+  // Nothing more reaches this reader; a scan sent from here on is the robot's to resend (it gets no ack).
+  node_->remove(scan_reader_);
+  scan_reader_ = nullptr;
+  return refused;
+}
+
 void DdsEdge::stop() {
   std::lock_guard lock(stop_mutex_);
   if (stopped_) return;
   stopped_ = true;
+  // Every scan taken from DDS ends mapped, dropped or rejected, and acknowledged (issue 18). The intake
+  // stops first. Draining, a scan it is still pushing into a full queue waits for space (the pipeline maps
+  // on) and is mapped; dropping, stopping the service first releases that push and the scan is dropped.
+  const bool drain = !service_.options().drop_on_exit;
   running_ = false;
   scans_ready_.notify_all();
   stats_wake_.notify_all();
+  if (!drain) service_.stop(false);
   if (ingest_thread_.joinable()) ingest_thread_.join();
-  service_.stop();  // drains or drops the queued scans; their acknowledgements are queued
+  service_.stop(drain);  // idempotent; the outcomes' acknowledgements are queued
+  // What DDS still held when the intake closed: refused, each acknowledged, so robots know to resend.
+  const std::size_t refused = scan_reader_ != nullptr ? refuseScansStillInDds() : 0;
   if (stats_thread_.joinable()) stats_thread_.join();
   if (stats_writer_ != nullptr) {
     msg::ServerStatistics m = toWire(service_.statistics());
@@ -309,7 +337,18 @@ void DdsEdge::stop() {
     if (t.joinable()) t.join();
   }
   if (admin_thread_.joinable()) admin_thread_.join();
-  if (ack_thread_.joinable()) ack_thread_.join();
+  if (ack_thread_.joinable()) ack_thread_.join();  // it writes its whole backlog first
+  // Written is not delivered: deleting the participant drops what robots have not acknowledged yet.
+  const bool delivered = ack_writer_ == nullptr ||
+                         ack_writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
+                             static_cast<long double>(options_.ack_flush_s))) == ReturnCode_t::RETCODE_OK;
+  const RobotCounters t = service_.statistics().totals();
+  spdlog::info(
+      "stopped: {} scans received, {} in map, {} dropped, {} rejected ({} still in DDS when the intake "
+      "closed, refused); acknowledgements {}",
+      t.received, t.processed, t.dropped, t.rejected, refused,
+      delivered ? "all delivered"
+                : fmt::format("not all confirmed within {} s (robots gone?)", options_.ack_flush_s));
   node_->close();
 }
 

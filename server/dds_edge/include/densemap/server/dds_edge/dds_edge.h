@@ -30,6 +30,9 @@ struct DdsEdgeOptions {
   int realtime_priority = 0;
   /// Seconds between statistics messages (and log lines); 0 disables them.
   double statistics_period_s = 1.0;
+  /// At shutdown, seconds to wait until robots have confirmed the last acknowledgements (reliable DDS:
+  /// deleting the writer earlier drops the ones still in flight).
+  double ack_flush_s = 5.0;
 };
 
 class DdsEdge {
@@ -42,7 +45,9 @@ class DdsEdge {
   DdsEdge& operator=(const DdsEdge&) = delete;
 
   /// Clean shutdown: stop taking scans, stop the service (draining or dropping its queues as it is
-  /// configured, acknowledging each scan), publish the last statistics, stop answering. Idempotent.
+  /// configured, acknowledging each scan), refuse and acknowledge the scans DDS still holds, publish the
+  /// last statistics, stop answering, and wait (ack_flush_s) until robots have the acknowledgements.
+  /// Every scan taken from DDS is acknowledged exactly once. Idempotent.
   void stop();
 
   MapService& service() { return service_; }
@@ -57,6 +62,7 @@ class DdsEdge {
   void ackLoop();
   void statisticsLoop();
   void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
+  std::size_t refuseScansStillInDds();
 
   MapService& service_;
   DdsEdgeOptions options_;
