@@ -69,6 +69,8 @@ std::string toString(msg::QueryStatus s) {
       return "not found";
     case msg::STATUS_UNAVAILABLE:
       return "unavailable";
+    case msg::STATUS_BUSY:
+      return "busy";
   }
   return "status " + std::to_string(static_cast<unsigned>(s));
 }

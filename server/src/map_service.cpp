@@ -178,6 +178,7 @@ ServiceStatistics MapService::statistics() const {
   s.publish_to_map = pipeline_->publishToMapLatency();
   s.queries_answered = answerer_->answered();
   s.queries_failed = answerer_->failed();
+  s.queries_busy = answerer_->busy();
   s.commands_done = commands_done_;
   s.commands_failed = commands_failed_;
   s.resident_bytes = residentBytes();

@@ -19,6 +19,8 @@ std::string_view toString(Status s) {
       return "not found";
     case Status::kUnavailable:
       return "unavailable";
+    case Status::kBusy:
+      return "busy";
   }
   return "unknown status";
 }

@@ -30,6 +30,7 @@ using namespace std::chrono_literals;
 struct ServerOptions : server::ServiceOptions {
   msg::DdsOptions dds{};
   int query_threads = 2;
+  std::size_t query_backlog = 64;
   int latency_slice_us = 100;
   int realtime_priority = 0;
   double statistics_period_s = 1.0;
@@ -38,6 +39,7 @@ struct ServerOptions : server::ServiceOptions {
     server::dds_edge::DdsEdgeOptions e;
     e.dds = dds;
     e.query_threads = query_threads;
+    e.query_backlog = query_backlog;
     e.latency_slice_us = latency_slice_us;
     e.realtime_priority = realtime_priority;
     e.statistics_period_s = statistics_period_s;

@@ -11,4 +11,10 @@ void retainFreedMemory() {
 #endif
 }
 
+void returnFreedMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 }  // namespace densemap::util

@@ -12,6 +12,7 @@
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/realtime_priority.h"
+#include "densemap/util/retain_freed_memory.h"
 #include "densemap/util/scheduler_slice.h"
 
 namespace densemap::server::dds_edge {
@@ -80,8 +81,8 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     auto* admin_replies = node_->topic(msg::kAdminReplyTopic, msg::typeSupport<msg::AdminReplyPubSubType>());
     auto* stats = node_->topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
     ack_writer_ = node_->writer(acks, msg::kMessageWriterProfile);
-    reply_writer_ = node_->writer(replies, msg::kMessageWriterProfile);
-    admin_reply_writer_ = node_->writer(admin_replies, msg::kMessageWriterProfile);
+    reply_writer_ = node_->writer(replies, msg::kReplyWriterProfile);
+    admin_reply_writer_ = node_->writer(admin_replies, msg::kReplyWriterProfile);
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
     scan_reader_ = node_->reader(scans, msg::kScanReaderProfile, nullptr);
     query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, nullptr);
@@ -176,12 +177,33 @@ void DdsEdge::takeQueries() {
       continue;
     }
     {
-      std::lock_guard lock(wake_mutex_);
+      std::unique_lock lock(wake_mutex_);
+      if (query_backlog_.size() >= options_.query_backlog) {
+        lock.unlock();
+        replyBusy(rq);
+        continue;
+      }
       query_backlog_.push_back(std::move(rq));
     }
     queries_ready_.notify_one();
     rq = msg::QueryRequest();
   }
+}
+
+void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
+  // Answered at once, so a flood gets answers in bounded time and the backlog stays bounded (issue 18).
+  service_.countBusyQuery();
+  Answer busy;
+  busy.status = Status::kBusy;
+  busy.message = fmt::format("server busy: {} queries already waiting (query-backlog); retry later",
+                             options_.query_backlog);
+  msg::QueryReply rp = toReply(rq, std::move(busy));
+  reply_writer_->write(&rp);
+}
+
+bool DdsEdge::isLargeQuery(const msg::QueryRequest& rq) const {
+  return rq.points().size() / 3 > options_.large_query_points ||
+         (rq.kind() == msg::QUERY_BOX && rq.limit() > options_.large_query_points);
 }
 
 void DdsEdge::queryLoop() {
@@ -202,6 +224,13 @@ void DdsEdge::queryLoop() {
       spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), a.message);
     msg::QueryReply rp = toReply(rq, std::move(a));
     reply_writer_->write(&rp);
+    if (isLargeQuery(rq)) {
+      rp = msg::QueryReply();
+      rq = msg::QueryRequest();
+      util::returnFreedMemory();  // the request's and the answer's buffers
+      // The reply's stays in the writer's history for its lifespan; the statistics thread trims after it.
+      large_reply_ns_ = msg::nowNs();
+    }
   }
 }
 
@@ -272,6 +301,11 @@ void DdsEdge::statisticsLoop() {
       stats_wake_.wait_until(lock, next, [&] { return !running_.load(); });
     }
     if (!running_) break;
+    if (const std::int64_t t = large_reply_ns_.load();
+        t != 0 && msg::nowNs() - t > static_cast<std::int64_t>((msg::kReplyLifespanS + 1.0) * 1e9)) {
+      large_reply_ns_ = 0;
+      util::returnFreedMemory();  // the large replies have left the history
+    }
     const ServiceStatistics s = service_.statistics();
     msg::ServerStatistics m = toWire(s);
     stats_writer_->write(&m);

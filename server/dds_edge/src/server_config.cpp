@@ -10,6 +10,12 @@ cli::OptionTable edgeOptions(DdsEdgeOptions& o) {
   cli::OptionTable t("Queries and statistics (the DDS edge)");
   t.add("query-threads", o.query_threads, "threads answering queries concurrently with the map update")
       .range(1, 64);
+  t.add("query-backlog", o.query_backlog,
+        "queries waiting for a query thread at most; further ones are answered busy at once")
+      .range(1, 1e6);
+  t.add("large-query-points", o.large_query_points,
+        "queries with more points (or a larger box limit) give their memory back once answered")
+      .range(1, 1e9);
   t.add("latency-slice-us", o.latency_slice_us,
         "scheduler slice of the DDS and query threads in microseconds (Linux >= 6.12; 0: the kernel's)")
       .range(0, 1e6);

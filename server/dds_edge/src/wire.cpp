@@ -125,6 +125,8 @@ msg::QueryStatus toWire(Status s) {
       return msg::STATUS_NOT_FOUND;
     case Status::kUnavailable:
       return msg::STATUS_UNAVAILABLE;
+    case Status::kBusy:
+      return msg::STATUS_BUSY;
   }
   return msg::STATUS_FAILED;
 }
@@ -241,6 +243,7 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
   m.publish_to_map_p99_ms(s.publish_to_map.p99_ms);
   m.queries_answered(s.queries_answered);
   m.queries_failed(s.queries_failed);
+  m.queries_busy(s.queries_busy);
   m.commands_done(s.commands_done);
   m.commands_failed(s.commands_failed);
   m.resident_bytes(s.resident_bytes);

@@ -10,4 +10,8 @@ namespace densemap::util {
 /// when memory goes back to the kernel, never how much the process can allocate.
 void retainFreedMemory();
 
+/// Gives the freed memory of every allocator arena back to the kernel now (glibc's malloc_trim). For the
+/// rare large request (a query of a million points) whose peak retainFreedMemory would otherwise keep.
+void returnFreedMemory();
+
 }  // namespace densemap::util

@@ -37,6 +37,10 @@ inline constexpr const char* kScanWriterProfile = "scan_writer";
 inline constexpr const char* kScanReaderProfile = "scan_reader";
 inline constexpr const char* kMessageWriterProfile = "message_writer";
 inline constexpr const char* kMessageReaderProfile = "message_reader";
+/// Query and admin replies: as message_writer, with a lifespan (kReplyLifespanS) after which a reply leaves
+/// the history, so large replies do not stay pinned in it until 256 later ones replace them.
+inline constexpr const char* kReplyWriterProfile = "reply_writer";
+inline constexpr double kReplyLifespanS = 10.0;
 
 struct DdsOptions {
   /// DDS domain id (every program takes --domain N).

@@ -51,6 +51,8 @@ class MapService {
   /// Counts a query or a command an edge refused before it could be one (unknown kind, malformed), so
   /// the statistics count every request.
   void countRefusedQuery() { answerer_->countFailure(); }
+  /// Counts a query an edge answered kBusy (its backlog was full) without asking the service.
+  void countBusyQuery() { answerer_->countBusy(); }
   void countRefusedCommand() { ++commands_failed_; }
   ServiceStatistics statistics() const;
   /// Stops taking scans; with `drain` maps every queued scan, else drops them (counted); saves if

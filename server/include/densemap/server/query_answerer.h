@@ -34,6 +34,8 @@ class QueryAnswerer {
   std::uint64_t answered() const { return answered_.load(); }
   std::uint64_t failed() const { return failed_.load(); }
   void countFailure() { ++failed_; }
+  std::uint64_t busy() const { return busy_.load(); }
+  void countBusy() { ++busy_; }
   /// Time to answer (lock waits included) of recent queries.
   LatencySummary latency() const { return latency_.summary(); }
 
@@ -47,7 +49,7 @@ class QueryAnswerer {
   const MapStore& store_;
   QueryLimits limits_;
   const DenseStore* dense_;
-  std::atomic<std::uint64_t> answered_{0}, failed_{0};
+  std::atomic<std::uint64_t> answered_{0}, failed_{0}, busy_{0};
   LatencyWindow latency_;
 };
 

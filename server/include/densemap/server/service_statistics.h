@@ -28,6 +28,7 @@ struct ServiceStatistics {
   LatencySummary publish_to_map;
   std::uint64_t queries_answered = 0;
   std::uint64_t queries_failed = 0;
+  std::uint64_t queries_busy = 0;  ///< answered kBusy by an edge whose backlog was full
   std::uint64_t commands_done = 0;
   std::uint64_t commands_failed = 0;
   std::uint64_t resident_bytes = 0;

@@ -13,6 +13,7 @@ enum class Status {
   kFailed,            ///< the server could not do it (e.g. a file it cannot write)
   kNotFound,          ///< a load names a map that is not in the map directory
   kUnavailable,       ///< the service is stopping
+  kBusy,              ///< too many queries waiting; the caller should retry later
 };
 
 std::string_view toString(Status s);

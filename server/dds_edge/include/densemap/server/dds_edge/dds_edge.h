@@ -22,6 +22,12 @@ struct DdsEdgeOptions {
   msg::DdsOptions dds{};
   /// Threads answering queries concurrently with the map update.
   int query_threads = 2;
+  /// Queries waiting for a query thread at most; one more is answered STATUS_BUSY at once (and counted),
+  /// so under a flood every query gets an answer in bounded time and the backlog's memory is bounded.
+  std::size_t query_backlog = 64;
+  /// A query with more points than this (or a box limit above it) gives its memory back to the system
+  /// once answered: the allocator would otherwise keep the peak of the largest query ever asked.
+  std::size_t large_query_points = 100'000;
   /// Scheduler time slice in microseconds asked for the DDS, query and other latency-bound threads (Linux
   /// >= 6.12 honours it; 0 = the kernel's default). The pipeline's stages keep the default.
   int latency_slice_us = 100;
@@ -63,6 +69,8 @@ class DdsEdge {
   void statisticsLoop();
   void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
   std::size_t refuseScansStillInDds();
+  void replyBusy(const msg::QueryRequest& rq);
+  bool isLargeQuery(const msg::QueryRequest& rq) const;
 
   MapService& service_;
   DdsEdgeOptions options_;
@@ -79,6 +87,7 @@ class DdsEdge {
   std::mutex wake_mutex_;
   std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;
   std::atomic<bool> running_{true};
+  std::atomic<std::int64_t> large_reply_ns_{0};  // when the last large reply was written (0: trimmed since)
   bool workers_running_ = true;                  // query, admin and ack threads; guarded by wake_mutex_
   std::deque<msg::QueryRequest> query_backlog_;  // guarded by wake_mutex_
   std::deque<msg::AdminRequest> admin_backlog_;  // guarded by wake_mutex_
