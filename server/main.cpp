@@ -45,10 +45,17 @@ int main(int argc, char** argv) {
   try {
     server::MapService service(config.service);
     server::dds_edge::DdsEdge edge(service, config.edge);
-    int sig = 0;
-    sigwait(&signals, &sig);
-    spdlog::info("received {}", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    // Until a signal, or until another server on the same topics turns out to have started first.
+    int sig = -1;
+    const timespec tick{0, 100'000'000};
+    while (sig < 0 && !edge.refused()) sig = sigtimedwait(&signals, nullptr, &tick);
+    if (sig >= 0) spdlog::info("received {}", sig == SIGINT ? "SIGINT" : "SIGTERM");
     edge.stop();
+    if (sig < 0) {
+      spdlog::error(
+          "stopped: another densemap-server serves the same topics (see above); use --namespace to run both");
+      return 1;
+    }
     for (const auto& [id, r] : service.statistics().robots) {
       std::printf("robot %-16s received %llu, in map %llu, dropped %llu, rejected %llu\n", id.c_str(),
                   static_cast<unsigned long long>(r.received), static_cast<unsigned long long>(r.processed),

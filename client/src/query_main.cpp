@@ -200,6 +200,7 @@ int main(int argc, char** argv) {
       json out = {
           {"map_version", r.map_version()}, {"cells_changed", r.cells_changed()}, {"message", r.message()}};
       if (*save || *load) out["map"] = statsJson(r.stats());
+      out["server_id"] = r.server_id();
       if (as_json) {
         std::printf("%s\n", out.dump().c_str());
       } else {
@@ -214,6 +215,7 @@ int main(int argc, char** argv) {
              : layer_name == "fused" ? msg::LAYER_FUSED
                                      : msg::LAYER_OCCUPANCY);
     json out;
+    std::string server_id;  // which server answered (one per namespace)
     if (*points) {
       rq.kind(msg::QUERY_POINTS);
       for (const auto& p : point_args) {
@@ -222,6 +224,7 @@ int main(int argc, char** argv) {
       }
       const auto r = qc.call(rq, timeout);
       check(r);
+      server_id = r.server_id();
       out["map_version"] = r.map_version();
       for (std::size_t i = 0; i < r.states().size(); ++i) {
         out["points"].push_back(
@@ -238,6 +241,7 @@ int main(int argc, char** argv) {
       rq.limit(limit);
       const auto r = qc.call(rq, timeout);
       check(r);
+      server_id = r.server_id();
       const std::size_t n = r.cells().size() / 3;
       out = {{"map_version", r.map_version()},
              {"occupied_cells", n},
@@ -258,6 +262,7 @@ int main(int argc, char** argv) {
       rq.ignore_unknown(ignore_unknown);
       const auto r = qc.call(rq, timeout);
       check(r);
+      server_id = r.server_id();
       out = {{"map_version", r.map_version()},
              {"hit", r.hit()},
              {"hit_point", r.hit_point()},
@@ -274,6 +279,7 @@ int main(int argc, char** argv) {
       rq.kind(msg::QUERY_STATS);
       const auto r = qc.call(rq, timeout);
       check(r);
+      server_id = r.server_id();
       out = statsJson(r.stats());
       if (!as_json) {
         const auto& s = r.stats();
@@ -357,6 +363,7 @@ int main(int argc, char** argv) {
             slice_height);
       }
     }
+    if (as_json && out.is_object()) out["server_id"] = server_id;
     if (as_json) std::printf("%s\n", out.dump().c_str());
   } catch (const std::exception& e) {
     if (as_json) {

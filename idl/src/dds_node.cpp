@@ -98,6 +98,8 @@ DdsNode::DdsNode(const DdsOptions& options) {
   if (options.domain < 0 || options.domain > 232) {
     throw DdsError("DDS domain id " + std::to_string(options.domain) + " is out of range (0..232)");
   }
+  if (const std::string why = checkTopicNamespace(options.topic_namespace); !why.empty()) throw DdsError(why);
+  namespace_ = options.topic_namespace;
   loadProfiles(options.profile_file);
   auto* factory = dds::DomainParticipantFactory::get_instance();
   const std::string profile = options.loopback   ? "densemap_loopback"
@@ -145,7 +147,8 @@ void DdsNode::remove(dds::DataWriter* writer) {
   if (participant_ != nullptr && writer != nullptr) publisher_->delete_datawriter(writer);
 }
 
-dds::Topic* DdsNode::topic(const std::string& name, dds::TypeSupport type) {
+dds::Topic* DdsNode::topic(const std::string& base_name, dds::TypeSupport type) {
+  const std::string name = namespace_.empty() ? base_name : namespace_ + "/" + base_name;
   std::lock_guard lock(mutex_);
   if (auto it = topics_.find(name); it != topics_.end()) return it->second;
   if (participant_->find_type(type.get_type_name()).empty()) {

@@ -30,6 +30,9 @@ cli::OptionTable ddsOptions(DdsOptions& o) {
       });
   t.add("dds-no-multicast", o.no_multicast,
         "no multicast discovery: only dds-peers (and this host) are asked");
+  t.add("namespace", o.topic_namespace,
+        "prefix of every topic (NS/densemap/scans ...): one map per namespace, several maps on one domain")
+      .checkedBy([&o] { return checkTopicNamespace(o.topic_namespace); });
   t.add("dds-lease-s", o.lease_s,
         "participant lease in seconds (0: Fast DDS's 20 s): peers notice a crash this late; an outage longer "
         "than this drops the peer")

@@ -31,6 +31,7 @@ struct ServerOptions : server::ServiceOptions {
   msg::DdsOptions dds{};
   int query_threads = 2;
   std::size_t query_backlog = 64;
+  double duplicate_check_s = 0.0;  // tests start many servers, each on its own domain
   int latency_slice_us = 100;
   int realtime_priority = 0;
   double statistics_period_s = 1.0;
@@ -40,6 +41,7 @@ struct ServerOptions : server::ServiceOptions {
     e.dds = dds;
     e.query_threads = query_threads;
     e.query_backlog = query_backlog;
+    e.duplicate_check_s = duplicate_check_s;
     e.latency_slice_us = latency_slice_us;
     e.realtime_priority = realtime_priority;
     e.statistics_period_s = statistics_period_s;

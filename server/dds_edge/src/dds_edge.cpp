@@ -2,6 +2,10 @@
 
 #include <pthread.h>
 
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
@@ -31,6 +35,8 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
       e_.takeQueries();
     } else if (reader == e_.admin_reader_) {
       e_.takeCommands();
+    } else if (reader == e_.stats_reader_) {
+      e_.takeStatistics();
     }
   }
   void on_subscription_matched(fdds::DataReader* reader,
@@ -84,6 +90,13 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     reply_writer_ = node_->writer(replies, msg::kReplyWriterProfile);
     admin_reply_writer_ = node_->writer(admin_replies, msg::kReplyWriterProfile);
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
+    // Another server on these topics shows itself by its statistics. Look before taking any scan or query.
+    {
+      const msg::ServerStatistics own = toWire(service_.statistics());
+      started_ns_ = own.stamp_ns() - static_cast<std::int64_t>(own.uptime_s() * 1e9);
+    }
+    stats_reader_ = node_->reader(stats, msg::kMessageReaderProfile, listener_.get());
+    checkForAnotherServer();
     scan_reader_ = node_->reader(scans, msg::kScanReaderProfile, nullptr);
     query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, nullptr);
     admin_reader_ = node_->reader(admin_requests, msg::kMessageReaderProfile, nullptr);
@@ -130,6 +143,58 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
 
 DdsEdge::~DdsEdge() { stop(); }
 
+void DdsEdge::checkForAnotherServer() {
+  if (options_.duplicate_check_s <= 0) return;
+  // Announce ourselves meanwhile (a running server then sees us too), every 200 ms: a message written
+  // before discovery has matched is lost.
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                             std::chrono::duration<double>(options_.duplicate_check_s));
+  while (std::chrono::steady_clock::now() < end) {
+    msg::ServerStatistics m = toWire(service_.statistics());
+    stats_writer_->write(&m);
+    std::this_thread::sleep_for(200ms);
+  }
+  if (refused_) {
+    std::lock_guard lock(peers_mutex_);
+    throw AnotherServerError(fmt::format(
+        "another densemap-server ('{}') already serves {} on DDS domain {}; this one does not start (two "
+        "servers would both map every scan and answer every query, and their maps drift apart). Stop it, or "
+        "give each server its own --namespace",
+        refused_by_,
+        options_.dds.topic_namespace.empty() ? "the topics"
+                                             : "namespace '" + options_.dds.topic_namespace + "'",
+        options_.dds.domain));
+  }
+}
+
+void DdsEdge::takeStatistics() {
+  msg::ServerStatistics m;
+  fdds::SampleInfo info;
+  while (stats_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
+    if (!info.valid_data || info.publication_handle == stats_writer_->get_instance_handle()) continue;
+    const fdds::InstanceHandle_t writer = info.publication_handle;
+    const std::int64_t other_start = m.stamp_ns() - static_cast<std::int64_t>(m.uptime_s() * 1e9);
+    std::lock_guard lock(peers_mutex_);
+    if (std::find(other_servers_.begin(), other_servers_.end(), writer) != other_servers_.end()) continue;
+    other_servers_.push_back(writer);
+    // The newer of the two gives way (ties: the smaller writer id stays), so exactly one keeps serving.
+    const bool we_are_newer = other_start < started_ns_ ||
+                              (other_start == started_ns_ && writer < stats_writer_->get_instance_handle());
+    spdlog::error(
+        "another densemap-server ('{}', started {:.1f} s {}) serves the same topics on DDS domain {}{}: both "
+        "would map every scan and answer every query. {}",
+        m.server_id(), std::abs(static_cast<double>(started_ns_ - other_start)) / 1e9,
+        other_start < started_ns_ ? "before this one" : "after this one", options_.dds.domain,
+        options_.dds.topic_namespace.empty() ? "" : " namespace '" + options_.dds.topic_namespace + "'",
+        we_are_newer ? "This one gives way and stops." : "It was started later and gives way.");
+    if (we_are_newer && !refused_) {
+      refused_by_ = m.server_id();
+      refused_ = true;
+    }
+  }
+}
+
 void DdsEdge::queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why) {
   // On a pipeline thread: only queue (the ack thread writes), so DDS never holds up the map's writer.
   msg::ScanAck ack = toAck(job, outcome, why);
@@ -173,7 +238,7 @@ void DdsEdge::takeQueries() {
       msg::QueryReply rp = toReply(rq, service_.answer(*q));
       if (rp.status() != msg::STATUS_OK)
         spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), rp.message());
-      reply_writer_->write(&rp);
+      writeReply(rp);
       continue;
     }
     {
@@ -190,6 +255,16 @@ void DdsEdge::takeQueries() {
   }
 }
 
+void DdsEdge::writeReply(msg::QueryReply& rp) {
+  rp.server_id(service_.options().server_id);
+  reply_writer_->write(&rp);
+}
+
+void DdsEdge::writeAdminReply(msg::AdminReply& rp) {
+  rp.server_id(service_.options().server_id);
+  admin_reply_writer_->write(&rp);
+}
+
 void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
   // Answered at once, so a flood gets answers in bounded time and the backlog stays bounded (issue 18).
   service_.countBusyQuery();
@@ -198,7 +273,7 @@ void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
   busy.message = fmt::format("server busy: {} queries already waiting (query-backlog); retry later",
                              options_.query_backlog);
   msg::QueryReply rp = toReply(rq, std::move(busy));
-  reply_writer_->write(&rp);
+  writeReply(rp);
 }
 
 bool DdsEdge::isLargeQuery(const msg::QueryRequest& rq) const {
@@ -223,7 +298,7 @@ void DdsEdge::queryLoop() {
     if (a.status != Status::kOk)
       spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), a.message);
     msg::QueryReply rp = toReply(rq, std::move(a));
-    reply_writer_->write(&rp);
+    writeReply(rp);
     if (isLargeQuery(rq)) {
       rp = msg::QueryReply();
       rq = msg::QueryRequest();
@@ -272,7 +347,7 @@ void DdsEdge::adminLoop() {
       r.message = "pong";  // ADMIN_PING
     }
     msg::AdminReply rp = toReply(rq, r);
-    admin_reply_writer_->write(&rp);
+    writeAdminReply(rp);
   }
 }
 
@@ -285,7 +360,10 @@ void DdsEdge::ackLoop() {
       if (ack_backlog_.empty()) return;
       batch.swap(ack_backlog_);
     }
-    for (msg::ScanAck& a : batch) ack_writer_->write(&a);
+    for (msg::ScanAck& a : batch) {
+      a.server_id(service_.options().server_id);
+      ack_writer_->write(&a);
+    }
   }
 }
 

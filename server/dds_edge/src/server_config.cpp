@@ -26,6 +26,10 @@ cli::OptionTable edgeOptions(DdsEdgeOptions& o) {
   t.add("statistics-period", o.statistics_period_s,
         "seconds between statistics messages and log lines (0: off)")
       .range(0.0, 3600.0);
+  t.add(
+       "duplicate-check", o.duplicate_check_s,
+       "at start, seconds to listen for another server on the same topics before serving (one per namespace)")
+      .range(0.0, 60.0);
   t.add("ack-flush", o.ack_flush_s,
         "at shutdown, seconds to wait until robots confirm the last scan acknowledgements")
       .range(0.0, 600.0);

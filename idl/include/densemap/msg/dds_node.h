@@ -20,6 +20,7 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
 #include "densemap/msg/checked_type.h"
+#include "densemap/msg/topic_namespace.h"
 
 namespace densemap::msg {
 
@@ -63,6 +64,9 @@ struct DdsOptions {
   double lease_s = 0.0;
   /// Participant name, shown by DDS tools.
   std::string name = "densemap";
+  /// Prefixes every topic ("fleet_a" -> "fleet_a/densemap/scans"), so independent maps share a domain:
+  /// one server per namespace. Empty: the plain topic names.
+  std::string topic_namespace;
 };
 
 class DdsError : public std::runtime_error {
@@ -80,7 +84,7 @@ class DdsNode {
 
   eprosima::fastdds::dds::DomainParticipant& participant() { return *participant_; }
 
-  /// Registers the type on first use and returns the topic (one per name).
+  /// Registers the type on first use and returns the topic (one per name), under the node's namespace.
   eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
   eprosima::fastdds::dds::DataWriter* writer(eprosima::fastdds::dds::Topic* topic, const std::string& profile,
                                              eprosima::fastdds::dds::DataWriterListener* listener = nullptr);
@@ -101,6 +105,7 @@ class DdsNode {
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;  // topic creation from several threads (e.g. query clients started in parallel)
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+  std::string namespace_;
 };
 
 /// The type support of a generated PubSubType, with a decoder that refuses malformed samples instead of

@@ -39,6 +39,17 @@ struct DdsEdgeOptions {
   /// At shutdown, seconds to wait until robots have confirmed the last acknowledgements (reliable DDS:
   /// deleting the writer earlier drops the ones still in flight).
   double ack_flush_s = 5.0;
+  /// At start, seconds to listen for another server's statistics on the same topics before taking scans
+  /// or queries: one map per namespace. A server found then (or later) that started earlier wins; this one
+  /// refuses to serve (AnotherServerError, or refused() later). 0: no wait (detection continues while
+  /// serving). Servers with statistics off are not seen.
+  double duplicate_check_s = 1.5;
+};
+
+/// Another densemap-server already serves these topics (same domain and namespace).
+class AnotherServerError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 class DdsEdge {
@@ -57,6 +68,13 @@ class DdsEdge {
   void stop();
 
   MapService& service() { return service_; }
+  /// True once another server on the same topics that started earlier was seen: this one should stop.
+  bool refused() const { return refused_; }
+  /// Other servers seen on the same topics so far.
+  std::size_t otherServersSeen() const {
+    std::lock_guard lock(peers_mutex_);
+    return other_servers_.size();
+  }
 
  private:
   class Listener;
@@ -70,6 +88,10 @@ class DdsEdge {
   void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
   std::size_t refuseScansStillInDds();
   void replyBusy(const msg::QueryRequest& rq);
+  void writeReply(msg::QueryReply& rp);
+  void checkForAnotherServer();
+  void takeStatistics();
+  void writeAdminReply(msg::AdminReply& rp);
   bool isLargeQuery(const msg::QueryRequest& rq) const;
 
   MapService& service_;
@@ -79,6 +101,7 @@ class DdsEdge {
   eprosima::fastdds::dds::DataReader* scan_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* query_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* admin_reader_ = nullptr;
+  eprosima::fastdds::dds::DataReader* stats_reader_ = nullptr;  // other servers' statistics
   eprosima::fastdds::dds::DataWriter* ack_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* reply_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* admin_reply_writer_ = nullptr;
@@ -87,7 +110,13 @@ class DdsEdge {
   std::mutex wake_mutex_;
   std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;
   std::atomic<bool> running_{true};
-  std::atomic<std::int64_t> large_reply_ns_{0};  // when the last large reply was written (0: trimmed since)
+  std::atomic<std::int64_t> large_reply_ns_{0};
+  mutable std::mutex peers_mutex_;
+  std::vector<eprosima::fastdds::dds::InstanceHandle_t> other_servers_;  // their statistics writers
+  std::int64_t started_ns_ = 0;                                          // the service's start
+  std::atomic<bool> refused_{false};
+  std::string
+      refused_by_;  // guarded by peers_mutex_  // when the last large reply was written (0: trimmed since)
   bool workers_running_ = true;                  // query, admin and ack threads; guarded by wake_mutex_
   std::deque<msg::QueryRequest> query_backlog_;  // guarded by wake_mutex_
   std::deque<msg::AdminRequest> admin_backlog_;  // guarded by wake_mutex_
