@@ -137,16 +137,14 @@ int main(int argc, char** argv) {
   CLI::App app{
       "densemap-bench: update speed of baseline, super rays, culling region and both, beside OctoMap (Table "
       "2.4)"};
-  std::string source = "sim", scans_text, resolutions = "0.2", backends = "grid,octree", methods = "all",
-              semantics = "batch";
+  cli::SourceSelection source;
+  std::string resolutions = "0.2", backends = "grid,octree", methods = "all", semantics = "batch";
   std::string log_level = "warn";
   double max_range = -1.0, realtime = 0.0;
   int repeat = 1, threads = 0;
   unsigned threshold = 20;
   bool json = false, no_unnecessary = false;
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
-  app.add_option("--source", source, "scan source (see densemap-map --help)")->capture_default_str();
-  app.add_option("--scans", scans_text, "scan range FIRST:LAST (inclusive); default all");
   app.add_option("--resolution", resolutions, "voxel size(s) in metres, comma separated")
       ->capture_default_str();
   app.add_option("--backend", backends, "grid, octree, or both comma separated")->capture_default_str();
@@ -169,8 +167,9 @@ int main(int argc, char** argv) {
                "skip the extra pass that counts unnecessary traversals (Table 2.3)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   auto logging_table = cli::loggingOptions(log_level);
-  cli::addToApp(app, {&logging_table});
-  if (const auto rc = cli::parse(app, argc, argv, {&logging_table})) return *rc;
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &logging_table})) return *rc;
   densemap::util::retainFreedMemory();
   cli::setupLogging(log_level);
   const int used_threads = cli::setThreads(threads);
@@ -199,8 +198,8 @@ int main(int argc, char** argv) {
     std::vector<double> res_list;
     for (const auto& r : splitList(resolutions)) res_list.push_back(std::stod(r));
 
-    auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans_text, src->size());
+    auto src = io::openSource(source.source, source.options);
+    const auto range = cli::parseScanRange(source.scans, src->size());
     const auto scans = cli::loadScans(*src, range);
     std::size_t points = 0;
     for (const auto& s : scans) points += s.points.size();

@@ -54,7 +54,8 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
-  std::string source, scans, methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
+  cli::SourceSelection source;
+  std::string methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
   double free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0, min_occupied_radius = 0.0;
   // The map and update options are the shared tables (also the kernel layers' cell size and ray cut).
   map::MapOptions map_options;
@@ -65,8 +66,6 @@ int main(int argc, char** argv) {
   int threads = 0, beam_step = 0;
   std::uint64_t seed = 1;
   std::string densify_method = "none", densify_weights;
-  app.add_option("--source", source, "scan source (see densemap-map --help)")->required();
-  app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
   app.add_option("--methods", methods_text, "comma-separated: exact, bgk, akimap")->capture_default_str();
   app.add_option("--free-sample-distance", free_distance,
                  "kernel methods: one free sample per this many metres")
@@ -106,15 +105,17 @@ int main(int argc, char** argv) {
   auto map_table = cli::mapOptions(map_options);
   auto update_table = cli::updateOptions(update_options);
   auto logging_table = cli::loggingOptions(log_level);
-  cli::addToApp(app, {&map_table, &update_table, &logging_table});
-  if (const auto rc = cli::parse(app, argc, argv, {&map_table, &update_table, &logging_table})) return *rc;
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &map_table, &update_table, &logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &update_table, &logging_table}))
+    return *rc;
   const double resolution = map_options.resolution, max_range = update_options.max_range;
   cli::setupLogging(log_level);
   cli::setThreads(threads);
 
   try {
-    auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans, src->size());
+    auto src = io::openSource(source.source, source.options);
+    const auto range = cli::parseScanRange(source.scans, src->size());
     // The split is drawn once, so every method sees the same map points and is tested on the same points.
     std::mt19937_64 rng(seed);
     eval::HeldOutOptions ho;

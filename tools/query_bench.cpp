@@ -32,26 +32,25 @@ double us(Clock::time_point t) { return std::chrono::duration<double, std::micro
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-query-bench: point-query lookups, one per point vs one batch, on a map of a source"};
-  std::string source = "sim", scans;
+  cli::SourceSelection source;
   map::MapOptions map_options;
   double radius = 20.0;
   std::size_t points = 1000, batches = 500;
   bool as_json = false;
-  app.add_option("--source", source, "scan source (sim, a dataset directory, ...)")->capture_default_str();
-  app.add_option("--scans", scans, "scan range FIRST:LAST (inclusive); default all");
   auto map_table = cli::mapOptions(map_options);
-  cli::addToApp(app, {&map_table});
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &map_table});
   app.add_option("--points", points, "points per query batch")->capture_default_str();
   app.add_option("--batches", batches, "query batches timed per method")->capture_default_str();
   app.add_option("--radius", radius,
                  "points are drawn within this many metres (x, y) of the last sensor origin")
       ->capture_default_str();
   app.add_flag("--json", as_json, "print one JSON object");
-  if (const auto rc = cli::parse(app, argc, argv, {&map_table})) return *rc;
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table})) return *rc;
   cli::setupLogging("warn");
   try {
-    const auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans, src->size());
+    const auto src = io::openSource(source.source, source.options);
+    const auto range = cli::parseScanRange(source.scans, src->size());
     std::unique_ptr<map::OccupancyMap> m = map::makeMap(map_options);
     update::UpdateEngine engine;
     geometry::Vec3f origin = geometry::Vec3f::Zero();

@@ -52,7 +52,8 @@ struct Round {
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-save-bench: query latency during a map save, under the lock vs from a snapshot"};
-  std::string source = "sim", scans, log_level = "warn";
+  cli::SourceSelection source;  // --scans: mapped before the saves; the rest stream during them
+  std::string log_level = "warn";
   int rounds = 3;
   double rate = 10.0;
   std::size_t points = 1000;
@@ -61,19 +62,18 @@ int main(int argc, char** argv) {
   options.update_nice = 0;
   auto map_table = cli::mapOptions(options.map);
   auto logging_table = cli::loggingOptions(log_level);
-  app.add_option("--source", source, "scan source (sim, a dataset directory, ...)")->capture_default_str();
-  app.add_option("--scans", scans, "scans mapped before the saves, FIRST:LAST; the rest stream during them");
   app.add_option("--rounds", rounds, "saves per mode (modes alternate)")->capture_default_str();
   app.add_option("--rate", rate, "scans per second streaming during the saves")->capture_default_str();
   app.add_option("--points", points, "points per query (back to back from one thread)")
       ->capture_default_str();
   app.add_flag("--json", as_json, "print one JSON object");
-  cli::addToApp(app, {&map_table, &logging_table});
-  if (const auto rc = cli::parse(app, argc, argv, {&map_table, &logging_table})) return *rc;
+  auto source_table = cli::sourceOptions(source);
+  cli::addToApp(app, {&source_table, &map_table, &logging_table});
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
   try {
-    const auto src = io::openSource(source);
-    const auto range = cli::parseScanRange(scans, src->size());
+    const auto src = io::openSource(source.source, source.options);
+    const auto range = cli::parseScanRange(source.scans, src->size());
     const auto dir =
         std::filesystem::temp_directory_path() / ("densemap-save-bench-" + std::to_string(::getpid()));
     options.map_dir = dir.string();
