@@ -1,8 +1,6 @@
 // The programs as a user runs them: densemap-server in its own process, densemap-replay and densemap-query
 // against it, then SIGTERM: a clean exit that saves the map.
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 
 #include <array>
@@ -17,7 +15,7 @@
 #include <octomap/OcTree.h>
 #include <nlohmann/json.hpp>
 
-extern char** environ;
+#include "spawn_process.h"
 
 namespace densemap::test {
 namespace {
@@ -35,20 +33,6 @@ std::pair<int, std::string> run(const std::string& command) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
-pid_t spawn(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
-  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  return rc == 0 ? pid : -1;
-}
-
 TEST(ServiceProcesses, EveryToolHasHelp) {
   for (const char* tool : {DENSEMAP_SERVER_BINARY, DENSEMAP_REPLAY_BINARY, DENSEMAP_QUERY_BINARY}) {
     const auto [rc, out] = run(std::string(tool) + " --help");
@@ -62,8 +46,8 @@ TEST(ServiceProcesses, ReplayQueryAndCleanShutdownThatSavesTheMap) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string saved = (dir / "map.bt").string(), summary = (dir / "summary.json").string();
-  const pid_t server = spawn({DENSEMAP_SERVER_BINARY, "--domain", "140", "--loopback", "--statistics-period",
-                              "0.2", "--save-on-exit", saved});
+  const pid_t server = spawnProcess({DENSEMAP_SERVER_BINARY, "--domain", "140", "--loopback",
+                                     "--statistics-period", "0.2", "--save-on-exit", saved});
   ASSERT_GT(server, 0);
   const std::string dds = " --domain 140 --loopback";
   const auto [replay_rc, replay_out] =

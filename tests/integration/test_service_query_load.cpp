@@ -1,9 +1,7 @@
 // Queries under load (issue 18): with a robot at full rate and four clients querying back to back, every
 // query gets an answer — a result, or STATUS_BUSY when the bounded backlog is full — within the deadline;
 // and the memory a million-point query takes is given back once it is answered.
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 
 #include <atomic>
@@ -14,8 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "service_harness.h"
-
-extern char** environ;
+#include "spawn_process.h"
 
 namespace densemap::test {
 namespace {
@@ -92,20 +89,6 @@ TEST(QueryLoad, EveryQueryGetsAResultOrBusyWithinTheDeadline) {
   EXPECT_GT(h.server->service.statistics().totals().processed, 0u) << "the map went on meanwhile";
 }
 
-pid_t spawnServer(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
-  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  return rc == 0 ? pid : -1;
-}
-
 /// A process's resident memory of one kind in MB ("RssAnon": its own heap and stacks; "RssShmem": the
 /// shared-memory transport's segments, fixed in size).
 double residentMb(pid_t pid, const std::string& kind = "RssAnon") {
@@ -119,7 +102,7 @@ double residentMb(pid_t pid, const std::string& kind = "RssAnon") {
 TEST(QueryLoad, AMillionPointQueryGivesItsMemoryBack) {
   const std::string data_dir = testMapDir(141);
   const pid_t server =
-      spawnServer({DENSEMAP_SERVER_BINARY, "--domain", "141", "--loopback", "--data-dir", data_dir});
+      spawnProcess({DENSEMAP_SERVER_BINARY, "--domain", "141", "--loopback", "--data-dir", data_dir});
   ASSERT_GT(server, 0);
   {
     msg::DdsOptions dds;

@@ -17,22 +17,13 @@
 #include "densemap/io/pcd_file.h"
 #include "densemap/io/scan_source.h"
 #include "densemap/io/sequence_directory_source.h"
+#include "temp_dir.h"
 
 namespace densemap::io {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("densemap_validation_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using test::TempDir;
 
 ::testing::AssertionResult throwsSaying(const std::function<void()>& f,
                                         const std::vector<std::string>& says) {

@@ -13,23 +13,14 @@
 #include "densemap/io/lidar_simulator.h"
 #include "densemap/io/scan_graph_source.h"
 #include "densemap/io/scan_source.h"
+#include "temp_dir.h"
 #include "test_data.h"
 
 namespace densemap::io {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("densemap_test_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using test::TempDir;
 
 void expectErrorNaming(const std::function<void()>& f, const std::string& name) {
   try {
