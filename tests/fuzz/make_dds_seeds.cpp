@@ -59,5 +59,12 @@ int main(int argc, char** argv) {
   a.box_min({-1, -1, -1});
   a.box_max({1, 1, 1});
   write<AdminRequestPubSubType>(root / "fuzz_dds_admin", "clear_box", a);
+  ServerStatistics st;
+  st.server_id("densemap-server");
+  st.stamp_ns(1'764'000'000'000'000'000);
+  st.uptime_s(12.5);
+  st.robots().resize(1);
+  st.robots()[0].robot_id("robot-0");
+  write<ServerStatisticsPubSubType>(root / "fuzz_dds_statistics", "statistics", st);
   return 0;
 }

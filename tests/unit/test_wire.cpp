@@ -1,5 +1,8 @@
 // The DDS edge's wire conversions (server/dds_edge/src/wire.cpp), without a participant: every message
 // kind to the service's types and back, and the malformed ones turned into error answers.
+#include <cmath>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "densemap/server/dds_edge/wire.h"
@@ -186,6 +189,20 @@ TEST(Wire, StatisticsConvert) {
   EXPECT_EQ(m.queries_answered(), 8u);
   EXPECT_EQ(m.commands_failed(), 2u);
   EXPECT_EQ(m.map_stats().map_version(), 4u);
+}
+
+TEST(Wire, AnotherServersStartIsReadOnlyFromPlausibleStatistics) {
+  msg::ServerStatistics m;
+  m.stamp_ns(2'000'000'000'000);
+  m.uptime_s(1.5);
+  EXPECT_EQ(serverStartNs(m), std::optional<std::int64_t>(1'998'500'000'000));
+  for (const double bad : {std::nan(""), -1.0, 1e300}) {
+    m.uptime_s(bad);
+    EXPECT_FALSE(serverStartNs(m).has_value()) << bad;
+  }
+  m.uptime_s(1.0);
+  m.stamp_ns(std::numeric_limits<std::int64_t>::max());
+  EXPECT_FALSE(serverStartNs(m).has_value());
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include <fmt/format.h>
@@ -93,7 +94,7 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     // Another server on these topics shows itself by its statistics. Look before taking any scan or query.
     {
       const msg::ServerStatistics own = toWire(service_.statistics());
-      started_ns_ = own.stamp_ns() - static_cast<std::int64_t>(own.uptime_s() * 1e9);
+      started_ns_ = serverStartNs(own).value_or(own.stamp_ns());
     }
     stats_reader_ = node_->reader(stats, msg::kMessageReaderProfile, listener_.get());
     checkForAnotherServer();
@@ -174,7 +175,8 @@ void DdsEdge::takeStatistics() {
   while (stats_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
     if (!info.valid_data || info.publication_handle == stats_writer_->get_instance_handle()) continue;
     const fdds::InstanceHandle_t writer = info.publication_handle;
-    const std::int64_t other_start = m.stamp_ns() - static_cast<std::int64_t>(m.uptime_s() * 1e9);
+    // A message whose stamp or uptime cannot be real never makes this server give way.
+    const std::int64_t other_start = serverStartNs(m).value_or(std::numeric_limits<std::int64_t>::max());
     std::lock_guard lock(peers_mutex_);
     if (std::find(other_servers_.begin(), other_servers_.end(), writer) != other_servers_.end()) continue;
     other_servers_.push_back(writer);
@@ -184,7 +186,7 @@ void DdsEdge::takeStatistics() {
     spdlog::error(
         "another densemap-server ('{}', started {:.1f} s {}) serves the same topics on DDS domain {}{}: both "
         "would map every scan and answer every query. {}",
-        m.server_id(), std::abs(static_cast<double>(started_ns_ - other_start)) / 1e9,
+        m.server_id(), std::abs(static_cast<double>(started_ns_) - static_cast<double>(other_start)) / 1e9,
         other_start < started_ns_ ? "before this one" : "after this one", options_.dds.domain,
         options_.dds.topic_namespace.empty() ? "" : " namespace '" + options_.dds.topic_namespace + "'",
         we_are_newer ? "This one gives way and stops." : "It was started later and gives way.");

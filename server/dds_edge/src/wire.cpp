@@ -1,6 +1,7 @@
 #include "densemap/server/dds_edge/wire.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <fmt/format.h>
 
@@ -204,6 +205,14 @@ msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& r) {
   rp.cells_changed(r.cells_changed);
   if (r.map) rp.stats(toWire(*r.map));
   return rp;
+}
+
+std::optional<std::int64_t> serverStartNs(const msg::ServerStatistics& m) {
+  const double uptime_s = m.uptime_s();
+  // A century of uptime and stamps up to 2^62 ns (year 2116) keep the arithmetic inside int64.
+  if (!std::isfinite(uptime_s) || uptime_s < 0.0 || uptime_s > 3.2e9) return std::nullopt;
+  if (m.stamp_ns() <= 0 || m.stamp_ns() > (std::int64_t{1} << 62)) return std::nullopt;
+  return m.stamp_ns() - static_cast<std::int64_t>(uptime_s * 1e9);
 }
 
 msg::ServerStatistics toWire(const ServiceStatistics& s) {

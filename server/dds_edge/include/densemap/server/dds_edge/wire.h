@@ -33,5 +33,9 @@ msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& result
 msg::QueryStatus toWire(Status s);
 msg::MapStatistics toWire(const MapSummary& s);
 msg::ServerStatistics toWire(const ServiceStatistics& s);
+/// When the server that sent `m` started (its stamp minus its uptime, system clock ns); nullopt when the
+/// stamp or uptime cannot be one (NaN, negative, beyond the clock's range). Another server's statistics
+/// are read to tell which of two servers on the same topics started first.
+std::optional<std::int64_t> serverStartNs(const msg::ServerStatistics& m);
 
 }  // namespace densemap::server::dds_edge
