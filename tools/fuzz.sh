@@ -24,6 +24,7 @@ cmake -S "$root/tests/fuzz" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=
 cmake --build "$root/build-fuzz"
 cd "$root/build-fuzz"
 ./make_dds_seeds seeds
+./make_ros2_seeds seeds
 data="${DENSEMAP_DATA_DIR:-$root/../shared/data}"
 seed_from_data() {  # TARGET FILE...: copies the files that exist and are small into the target's seeds
   local target="$1"; shift

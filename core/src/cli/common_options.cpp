@@ -9,11 +9,24 @@ OptionTable sourceOptions(SourceSelection& s) {
       "'sim[:key=value,...]' (built-in simulator), a sequence directory (clouds/ + poses/), a KITTI odometry "
       "layout (velodyne/ + poses.txt + calib.txt), a directory of <name>_<k>.pcd with VIEWPOINT origins "
       "(la3dm), "
-      "one .pcd, or an OctoMap .graph");
+      "one .pcd, an OctoMap .graph, or a ROS 2 bag (.mcap, .db3, or a rosbag2 directory)");
   t.add("scans", s.scans, "scan range FIRST:LAST (inclusive), N, or FIRST: (to the end); empty: all");
   t.add("allow-gaps", s.options.allow_gaps,
-        "map the scans a numbered sequence holds when some files are missing (default: a gap is an error)");
+        "map the scans a numbered sequence holds when some files are missing, or a bag's clouds that have "
+        "a transform (default: a gap is an error)");
+  addFrameOptions(t, s.options.frames);
   return t;
+}
+
+void addFrameOptions(OptionTable& t, ros2::FrameOptions& f) {
+  t.add("cloud-topic", f.cloud_topic,
+        "ROS 2 sensor_msgs/PointCloud2 topic (bags: default their only one; the server's ROS 2 edge: "
+        "/cloud_in)");
+  t.add("frame-id", f.fixed_frame, "ROS 2 fixed frame the map is built in (octomap_server's frame_id)");
+  t.add("base-frame-id", f.base_frame,
+        "ROS 2 robot base frame: the child of a PoseStamped pose topic (octomap_server's base_frame_id)");
+  t.add("pose-topic", f.pose_topic,
+        "ROS 2 nav_msgs/Odometry or geometry_msgs/PoseStamped topic giving the base pose (default: use /tf)");
 }
 
 OptionTable loggingOptions(std::string& level) {

@@ -4,6 +4,7 @@
 
 #include "densemap/io/kitti_odometry_source.h"
 #include "densemap/io/lidar_simulator.h"
+#include "densemap/io/ros_bag_source.h"
 #include "densemap/io/scan_graph_source.h"
 #include "densemap/io/sequence_directory_source.h"
 #include "densemap/io/viewpoint_pcd_source.h"
@@ -23,6 +24,7 @@ std::unique_ptr<ScanSource> openSource(const std::string& spec, const SourceOpti
   }
   if (!fs::exists(spec))
     throw SourceError(spec + ": no such file or directory (give a dataset path, or 'sim' for the simulator)");
+  if (ros2::isBag(spec)) return std::make_unique<RosBagSource>(spec, options);
   if (fs::is_directory(spec)) {
     if (fs::is_directory(spec + "/clouds")) return std::make_unique<SequenceDirectorySource>(spec, options);
     if (fs::is_directory(spec + "/velodyne")) return std::make_unique<KittiOdometrySource>(spec, options);
@@ -31,7 +33,9 @@ std::unique_ptr<ScanSource> openSource(const std::string& spec, const SourceOpti
   const std::string ext = fs::path(spec).extension().string();
   if (ext == ".graph") return std::make_unique<ScanGraphSource>(spec);
   if (ext == ".pcd") return std::make_unique<ViewpointPcdSource>(spec, options);
-  throw SourceError(spec + ": unknown source type (expected a directory, a .pcd, a .graph, or 'sim')");
+  throw SourceError(spec +
+                    ": unknown source type (expected a directory, a .pcd, a .graph, a ROS 2 bag (.mcap, "
+                    ".db3, rosbag2 directory), or 'sim')");
 }
 
 }  // namespace densemap::io

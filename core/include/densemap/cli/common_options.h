@@ -19,8 +19,10 @@ struct SourceSelection {
   io::SourceOptions options;
 };
 
-/// --source, --scans, --allow-gaps.
+/// --source, --scans, --allow-gaps and the ROS 2 frame options.
 OptionTable sourceOptions(SourceSelection& selection);
+/// --cloud-topic, --frame-id, --base-frame-id, --pose-topic: how ROS 2 clouds are placed (bags and the edge).
+void addFrameOptions(OptionTable& table, ros2::FrameOptions& frames);
 /// --log-level.
 OptionTable loggingOptions(std::string& level);
 /// --backend, --resolution, --prob-hit, --prob-miss, --clamp-min, --clamp-max.

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "densemap/io/scan.h"
+#include "densemap/ros2/sensor_pose.h"
 
 namespace densemap::io {
 
@@ -23,6 +24,8 @@ class ScanSource {
 struct SourceOptions {
   /// Map the scans a numbered sequence holds when some are missing (by default a gap is an error).
   bool allow_gaps = false;
+  /// ROS 2 bags: which cloud topic, and the frames its poses are resolved in.
+  ros2::FrameOptions frames;
 };
 
 /// Opens a source from a specification:
@@ -30,7 +33,8 @@ struct SourceOptions {
 ///  - a directory with clouds/ and poses/ — sequence directory;
 ///  - a directory with velodyne/ and poses.txt — KITTI odometry layout;
 ///  - a directory of <name>_<k>.pcd files, or one .pcd — world-frame PCD with the VIEWPOINT as origin;
-///  - a .graph file — OctoMap scan graph.
+///  - a .graph file — OctoMap scan graph;
+///  - a .mcap or .db3 file, or a rosbag2 directory — a ROS 2 bag (options.frames).
 std::unique_ptr<ScanSource> openSource(const std::string& spec, const SourceOptions& options = {});
 
 }  // namespace densemap::io

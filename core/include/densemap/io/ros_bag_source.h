@@ -1,0 +1,36 @@
+// A ROS 2 bag (MCAP or rosbag2 sqlite3) as a scan source: the clouds of one PointCloud2 topic, each with
+// its sensor pose resolved through TF (or a pose topic) exactly as the server's ROS 2 edge resolves it.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "densemap/io/scan_source.h"
+#include "densemap/ros2/bag_reader.h"
+
+namespace densemap::io {
+
+class RosBagSource : public ScanSource {
+ public:
+  /// Throws SourceError when the bag cannot be read, has no (or several, without --cloud-topic)
+  /// PointCloud2 topics, or a cloud has no transform to the fixed frame (named, with the reason).
+  RosBagSource(const std::string& path, const SourceOptions& options);
+  std::size_t size() const override { return clouds_.size(); }
+  Scan read(std::size_t i) const override;
+  std::string describe() const override;
+
+  const ros2::BagReader& bag() const { return *bag_; }
+
+ private:
+  struct Cloud {
+    ros2::BagMessageRef ref;
+    Eigen::Isometry3d pose;  ///< fixed <- cloud frame at the cloud's stamp
+  };
+  std::string path_;
+  std::string topic_;
+  std::unique_ptr<ros2::BagReader> bag_;
+  std::vector<Cloud> clouds_;
+};
+
+}  // namespace densemap::io
