@@ -12,6 +12,8 @@
 #include "densemap/server/dds_edge/dds_edge.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/map_service.h"
+#include "densemap/server/ros2_edge/octomap_params.h"
+#include "densemap/server/ros2_edge/ros2_edge.h"
 #include "densemap/util/retain_freed_memory.h"
 
 using namespace densemap;
@@ -32,8 +34,25 @@ int main(int argc, char** argv) {
     std::fputs(server::dds_edge::defaultServerToml().c_str(), stdout);
     return 0;
   }
-  densemap::util::retainFreedMemory();
   cli::setupLogging(config.log_level);
+  if (!config.ros2.params_file.empty()) {
+    // octomap_server's parameters: they replace the defaults and the --config file; flags still win.
+    try {
+      const auto ignored = server::ros2_edge::applyOctomapParams(
+          config.ros2.params_file, config.ros2.node_name,
+          {&config.service.map, &config.service.update, &config.ros2}, [&](const std::string& flag) {
+            return app.get_option_no_throw("--" + flag) != nullptr &&
+                   app.get_option("--" + flag)->count() > 0;
+          });
+      for (const auto& why : ignored)
+        spdlog::warn("--params-file {}: ignored {}", config.ros2.params_file, why);
+    } catch (const std::invalid_argument& e) {
+      spdlog::error("{}", e.what());
+      return 2;
+    }
+  }
+  if (config.ros2.only) config.ros2.enabled = true;
+  densemap::util::retainFreedMemory();
   cli::setThreads(config.service.update_threads);
 
   // SIGINT/SIGTERM are taken by this thread only (blocked before any other thread starts).
@@ -44,13 +63,21 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   try {
     server::MapService service(config.service);
-    server::dds_edge::DdsEdge edge(service, config.edge);
+    std::unique_ptr<server::dds_edge::DdsEdge> edge;
+    if (!config.ros2.only) edge = std::make_unique<server::dds_edge::DdsEdge>(service, config.edge);
+    std::unique_ptr<server::ros2_edge::Ros2Edge> ros2;
+    if (config.ros2.enabled)
+      ros2 = std::make_unique<server::ros2_edge::Ros2Edge>(service, config.ros2, config.edge.dds);
     // Until a signal, or until another server on the same topics turns out to have started first.
     int sig = -1;
     const timespec tick{0, 100'000'000};
-    while (sig < 0 && !edge.refused()) sig = sigtimedwait(&signals, nullptr, &tick);
+    while (sig < 0 && !(edge && edge->refused())) sig = sigtimedwait(&signals, nullptr, &tick);
     if (sig >= 0) spdlog::info("received {}", sig == SIGINT ? "SIGINT" : "SIGTERM");
-    edge.stop();
+    if (ros2) ros2->stop();  // the intake first: no cloud enters after the service stops
+    if (edge)
+      edge->stop();
+    else
+      service.stop();
     if (sig < 0) {
       spdlog::error(
           "stopped: another densemap-server serves the same topics (see above); use --namespace to run both");

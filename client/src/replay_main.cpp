@@ -20,9 +20,11 @@
 #include "densemap/cli/common_options.h"
 #include "densemap/cli/option_cli.h"
 #include "densemap/client/query_client.h"
+#include "densemap/client/ros2_player.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/densify/range_image.h"
 #include "densemap/msg/dds_options_cli.h"
+#include "densemap/ros2/bag_reader.h"
 #include "densemap/util/percentile.h"
 #include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
@@ -137,8 +139,32 @@ int main(int argc, char** argv) {
   app.add_option("--scan-log", scan_log_path,
                  "append one JSON line per scan sent, refused by DDS and acknowledged, as it happens (kept "
                  "when the process is killed; the cross-host test reads it)");
+  bool ros2_mode = false;
+  app.add_flag(
+      "--ros2", ros2_mode,
+      "play as a ROS 2 robot: a bag's recorded messages unchanged (topics, types, QoS, timing; --speed, "
+      "--rate 0 for no timing), any other source as PointCloud2 on --cloud-topic (default /cloud_in) "
+      "+ /tf in --frame-id");
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &dds_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
+  if (ros2_mode && ros2::isBag(source.source)) {
+    try {
+      const auto bag = ros2::openBag(source.source);
+      spdlog::info("playing {} as ROS 2", bag->describe());
+      client::Ros2PlayOptions o;
+      o.speed = speed;
+      o.as_fast_as_possible = app.get_option("--rate")->count() > 0 && rate == 0.0;
+      o.wait_s = wait_s;
+      dds.name = "densemap-replay";
+      msg::DdsNode node(dds);
+      const client::Ros2PlayResult r = client::playBag(*bag, node, o);
+      std::printf("played %zu messages (%zu clouds) in %.2f s\n", r.messages, r.clouds, r.seconds);
+      return 0;
+    } catch (const std::exception& e) {
+      spdlog::error("{}", e.what());
+      return 1;
+    }
+  }
 
   try {
     float ox = 0, oy = 0, oz = 0;
@@ -172,6 +198,17 @@ int main(int argc, char** argv) {
     }
 
     dds.name = "densemap-replay";
+    if (ros2_mode) {
+      client::Ros2PlayOptions o;
+      o.rate = rate * speed;
+      o.wait_s = wait_s;
+      if (!source.options.frames.cloud_topic.empty()) o.cloud_topic = source.options.frames.cloud_topic;
+      o.fixed_frame = source.options.frames.fixed_frame;
+      msg::DdsNode node(dds);
+      const client::Ros2PlayResult r = client::playScans(data, node, o);
+      std::printf("published %zu clouds with their transforms in %.2f s\n", r.clouds, r.seconds);
+      return 0;
+    }
     // Before the DDS participant: its receive threads and the query clients inherit the slice.
     if (query_clients > 0) util::requestSchedulerSlice(std::chrono::microseconds(latency_slice_us));
     // Real-time likewise, until the query threads exist (the robots' threads are created after it ends).

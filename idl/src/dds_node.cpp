@@ -178,4 +178,18 @@ dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const std::string
   return r;
 }
 
+dds::DataWriter* DdsNode::writer(dds::Topic* topic, const dds::DataWriterQos& qos,
+                                 dds::DataWriterListener* listener) {
+  dds::DataWriter* w = publisher_->create_datawriter(topic, qos, listener);
+  if (w == nullptr) throw DdsError("could not create a DDS writer on " + topic->get_name());
+  return w;
+}
+
+dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const dds::DataReaderQos& qos,
+                                 dds::DataReaderListener* listener) {
+  dds::DataReader* r = subscriber_->create_datareader(topic, qos, listener);
+  if (r == nullptr) throw DdsError("could not create a DDS reader on " + topic->get_name());
+  return r;
+}
+
 }  // namespace densemap::msg

@@ -95,7 +95,8 @@ RosBagSource::RosBagSource(const std::string& path, const SourceOptions& options
       ++without_pose;
       continue;
     }
-    clouds_.push_back({clouds[k], pose.transform});
+    const ros2::SensorPose p = ros2::sensorPoseOf(pose.transform);
+    clouds_.push_back({clouds[k], poseFromQuaternion(p.position, p.wxyz)});
   }
   if (refused) spdlog::warn("{}: {} transforms refused", path, refused);
   if (clouds_.empty())

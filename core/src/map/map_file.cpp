@@ -55,6 +55,18 @@ std::string encodeMap(const OccupancyMap& map, OctomapFormat format) {
   return std::move(out).str();
 }
 
+std::string octomapMessageData(const OccupancyMap& map, OctomapFormat format) {
+  std::unique_ptr<octomap::OcTree> copy;
+  const octomap::OcTree& tree = treeOf(map, copy);
+  std::ostringstream out;
+  if (format == OctomapFormat::kBinary)
+    tree.writeBinaryData(out);
+  else
+    tree.writeData(out);
+  if (!out) throw std::runtime_error("OctoMap could not encode the map");
+  return std::move(out).str();
+}
+
 void saveMap(const OccupancyMap& map, const std::string& path) {
   namespace fs = std::filesystem;
   const fs::path target(path);

@@ -28,4 +28,9 @@ std::optional<std::string> addPoseMessage(TfBuffer& buffer, const std::string& t
   return buffer.add(t, false);
 }
 
+SensorPose sensorPoseOf(const Eigen::Isometry3d& t) {
+  const Eigen::Quaterniond q(t.rotation());
+  return {{t.translation().x(), t.translation().y(), t.translation().z()}, {q.w(), q.x(), q.y(), q.z()}};
+}
+
 }  // namespace densemap::ros2

@@ -2,6 +2,7 @@
 
 #include "densemap/cli/common_options.h"
 #include "densemap/msg/dds_options_cli.h"
+#include "densemap/server/ros2_edge/ros2_options.h"
 #include "densemap/server/service_option_table.h"
 
 namespace densemap::server::dds_edge {
@@ -43,6 +44,7 @@ std::vector<cli::OptionTable> serverOptionTables(ServerConfig& c) {
   tables.push_back(cli::updateOptions(c.service.update));
   for (auto& t : serviceOptionTables(c.service)) tables.push_back(std::move(t));
   tables.push_back(edgeOptions(c.edge));
+  tables.push_back(ros2_edge::ros2Options(c.ros2));
   tables.push_back(cli::loggingOptions(c.log_level));
   return tables;
 }

@@ -25,6 +25,10 @@ void saveMap(const OccupancyMap& map, const std::string& path);
 /// The bytes of `path` saved as .bt (each cell's state) or .ot (full log-odds), chosen by the extension.
 std::string encodeMap(const OccupancyMap& map, OctomapFormat format);
 
+/// The tree data an octomap_msgs/Octomap message carries (OctoMap's writeBinaryData for binary, writeData
+/// for full: the file's node stream without its header), as octomap_msgs' binaryMapToMsg / fullMapToMsg.
+std::string octomapMessageData(const OccupancyMap& map, OctomapFormat format);
+
 struct MapLoadLimits {
   std::size_t max_bytes = std::size_t{4} << 30;  ///< larger files are refused unread
   std::uint64_t max_cells = 512'000'000;         ///< cells after expanding pruned leaves (grid backend)

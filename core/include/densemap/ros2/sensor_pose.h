@@ -3,6 +3,7 @@
 // the bag sources feed the same buffer the same way, so both give a cloud the same pose.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -35,5 +36,14 @@ std::optional<std::string> addPoseMessage(TfBuffer& buffer, const std::string& t
                                           const std::string& base_frame);
 
 bool isPoseType(const std::string& type);
+
+/// A looked-up transform as the position and quaternion (w, x, y, z) a scan carries. The edge sends
+/// these through the service's scan check, which builds the pose with io::poseFromQuaternion; bag
+/// sources build it the same way, so a bag mapped offline and the same bag served see identical poses.
+struct SensorPose {
+  std::array<double, 3> position{0, 0, 0};
+  std::array<double, 4> wxyz{1, 0, 0, 0};
+};
+SensorPose sensorPoseOf(const Eigen::Isometry3d& fixed_from_sensor);
 
 }  // namespace densemap::ros2

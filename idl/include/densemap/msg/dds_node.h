@@ -92,6 +92,14 @@ class DdsNode {
                                              const std::string& profile,
                                              eprosima::fastdds::dds::DataReaderListener* listener);
 
+  /// A writer / reader with explicit QoS (ROS 2 topics, whose QoS come from ROS 2's profiles, not ours).
+  eprosima::fastdds::dds::DataWriter* writer(eprosima::fastdds::dds::Topic* topic,
+                                             const eprosima::fastdds::dds::DataWriterQos& qos,
+                                             eprosima::fastdds::dds::DataWriterListener* listener = nullptr);
+  eprosima::fastdds::dds::DataReader* reader(eprosima::fastdds::dds::TopicDescription* topic,
+                                             const eprosima::fastdds::dds::DataReaderQos& qos,
+                                             eprosima::fastdds::dds::DataReaderListener* listener);
+
   /// Deletes a reader or writer this node created (waits for a listener call in progress to return).
   void remove(eprosima::fastdds::dds::DataReader* reader);
   void remove(eprosima::fastdds::dds::DataWriter* writer);

@@ -7,6 +7,7 @@
 
 #include "densemap/cli/option_table.h"
 #include "densemap/server/dds_edge/dds_edge.h"
+#include "densemap/server/ros2_edge/ros2_edge.h"
 #include "densemap/server/service_options.h"
 
 namespace densemap::server::dds_edge {
@@ -14,6 +15,7 @@ namespace densemap::server::dds_edge {
 struct ServerConfig {
   ServiceOptions service{};
   DdsEdgeOptions edge{};
+  ros2_edge::Ros2EdgeOptions ros2{};
   std::string log_level = "info";
 };
 

@@ -1,0 +1,441 @@
+#include "densemap/server/ros2_edge/ros2_edge.h"
+
+#include <pthread.h>
+
+#include <fastdds/rtps/common/WriteParams.h>
+#include <spdlog/spdlog.h>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+
+#include "densemap/msg/raw_cdr_type.h"
+#include "densemap/msg/ros2_qos.h"
+#include "densemap/ros2/message_codec.h"
+#include "densemap/ros2/names.h"
+#include "densemap/ros2/qos.h"
+#include "densemap/server/ros2_edge/ros2_options.h"
+
+namespace densemap::server::ros2_edge {
+
+namespace fdds = eprosima::fastdds::dds;
+using Clock = std::chrono::steady_clock;
+
+/// One ROS 2 service as rmw_fastrtps carries it: requests on rq/<name>Request, replies on rr/<name>Reply
+/// matched to their request by the sample identity.
+struct Ros2Edge::Service {
+  enum class Kind { kClearBox, kReset, kGetBinary, kGetFull };
+  Kind kind;
+  std::string name;
+  fdds::DataReader* requests = nullptr;
+  fdds::DataWriter* replies = nullptr;
+};
+
+class Ros2Edge::Listener : public fdds::DataReaderListener {
+ public:
+  explicit Listener(Ros2Edge& e) : e_(e) {}
+  void on_data_available(fdds::DataReader* reader) override {
+    if (reader == e_.tf_reader_) {
+      e_.takeTf(reader, false);
+    } else if (reader == e_.tf_static_reader_) {
+      e_.takeTf(reader, true);
+    } else if (reader == e_.pose_reader_) {
+      e_.takePoses();
+    } else {
+      e_.wake_.notify_all();  // clouds and service requests: their threads take them
+    }
+  }
+
+ private:
+  Ros2Edge& e_;
+};
+
+namespace {
+
+/// Takes every sample of `reader`; calls f(bytes, info) for each with data.
+template <class F>
+void takeAll(fdds::DataReader* reader, F&& f) {
+  msg::RawSample sample;
+  fdds::SampleInfo info;
+  while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK)
+    if (info.valid_data) f(sample.bytes, info);
+}
+
+std::int64_t toNs(const eprosima::fastrtps::rtps::Time_t& t) {
+  return static_cast<std::int64_t>(t.seconds()) * 1'000'000'000 + t.nanosec();
+}
+
+}  // namespace
+
+Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const msg::DdsOptions& dds)
+    : service_(service), options_(options) {
+  {
+    Ros2EdgeOptions copy = options_;  // ranges and choices live in the option table only
+    if (const std::string why = ros2Options(copy).validate(); !why.empty()) throw std::invalid_argument(why);
+  }
+  const std::string& node = options_.node_name;
+  auto resolve = [&](const std::string& name) {
+    try {
+      return ros2::resolveName(name, node);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string(e.what()) +
+                                  " (check --cloud-topic, --pose-topic and --node-name)");
+    }
+  };
+  listener_ = std::make_unique<Listener>(*this);
+  msg::DdsOptions d = dds;
+  d.name = node;           // what DDS tools show; ROS 2 tools list nodes from ros_discovery_info (not sent)
+  d.topic_namespace = "";  // ROS 2 names are resolved by ROS 2's rules, not densemap's namespace
+  node_ = std::make_unique<msg::DdsNode>(d);
+  auto topic = [&](const std::string& ros_name, const char* ros_type) {
+    return node_->topic(ros2::topicOnDds(resolve(ros_name)), msg::rawCdrType(ros2::typeOnDds(ros_type)));
+  };
+  // Clouds: a best-effort reader matches sensor-data (best effort) and reliable publishers alike.
+  cloud_reader_ = node_->reader(topic(options_.frames.cloud_topic, ros2::kPointCloud2Type),
+                                msg::readerQos(ros2::Qos::sensorData()), nullptr);
+  if (options_.frames.pose_topic.empty()) {
+    tf_reader_ =
+        node_->reader(topic(ros2::kTfTopic, ros2::kTfMessageType), msg::readerQos(ros2::Qos::tf()), nullptr);
+    ros2::Qos static_qos = ros2::Qos::tfStatic();
+    static_qos.depth = 100;  // one latched sample from each static broadcaster
+    tf_static_reader_ =
+        node_->reader(topic(ros2::kTfStaticTopic, ros2::kTfMessageType), msg::readerQos(static_qos), nullptr);
+  } else {
+    pose_type_ = options_.pose_type == "odometry" ? ros2::kOdometryType : ros2::kPoseStampedType;
+    pose_reader_ = node_->reader(topic(options_.frames.pose_topic, pose_type_.c_str()),
+                                 msg::readerQos(ros2::Qos::sensorData()), nullptr);
+  }
+  const ros2::Qos map_qos = options_.latch ? ros2::Qos::latched() : ros2::Qos{true, false, false, 5};
+  binary_writer_ = node_->writer(topic("octomap_binary", ros2::kOctomapType), msg::writerQos(map_qos));
+  full_writer_ = node_->writer(topic("octomap_full", ros2::kOctomapType), msg::writerQos(map_qos));
+  projected_writer_ =
+      node_->writer(topic("projected_map", ros2::kOccupancyGridType), msg::writerQos(map_qos));
+  centres_writer_ =
+      node_->writer(topic("octomap_point_cloud_centers", ros2::kPointCloud2Type), msg::writerQos(map_qos));
+
+  const struct {
+    Service::Kind kind;
+    const char* name;
+    const char* type;
+  } services[] = {{Service::Kind::kClearBox, "~/clear_bbox", "octomap_msgs/srv/BoundingBoxQuery"},
+                  {Service::Kind::kReset, "~/reset", "std_srvs/srv/Empty"},
+                  {Service::Kind::kGetBinary, "octomap_binary", "octomap_msgs/srv/GetOctomap"},
+                  {Service::Kind::kGetFull, "octomap_full", "octomap_msgs/srv/GetOctomap"}};
+  for (const auto& s : services) {
+    auto svc = std::make_unique<Service>();
+    svc->kind = s.kind;
+    svc->name = resolve(s.name);
+    auto* rq =
+        node_->topic(ros2::requestTopicOnDds(svc->name), msg::rawCdrType(ros2::requestTypeOnDds(s.type)));
+    auto* rr =
+        node_->topic(ros2::replyTopicOnDds(svc->name), msg::rawCdrType(ros2::responseTypeOnDds(s.type)));
+    svc->requests = node_->reader(rq, msg::readerQos(ros2::Qos::reliableDefault()), nullptr);
+    svc->replies = node_->writer(rr, msg::writerQos(ros2::Qos::reliableDefault()));
+    services_.push_back(std::move(svc));
+  }
+  // Listeners last: every reader is known when the first callback comes.
+  for (auto* r : {cloud_reader_, tf_reader_, tf_static_reader_, pose_reader_})
+    if (r) r->set_listener(listener_.get());
+  for (auto& s : services_) s->requests->set_listener(listener_.get());
+
+  intake_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-ros2-clouds");
+    intakeLoop();
+  });
+  publish_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-ros2-maps");
+    publishLoop();
+  });
+  service_thread_ = std::thread([this] {
+    pthread_setname_np(pthread_self(), "dm-ros2-srv");
+    serviceLoop();
+  });
+  // Static transforms and requests that arrived before the listeners were attached.
+  if (tf_static_reader_) takeTf(tf_static_reader_, true);
+  if (tf_reader_) takeTf(tf_reader_, false);
+  spdlog::info(
+      "ROS 2 edge on domain {}: node /{}, clouds on {} placed in '{}' through {}; maps on octomap_binary, "
+      "octomap_full, projected_map, octomap_point_cloud_centers ({}); services {}/clear_bbox, "
+      "{}/reset, octomap_binary, octomap_full",
+      dds.domain, node, resolve(options_.frames.cloud_topic), options_.frames.fixed_frame,
+      options_.frames.pose_topic.empty() ? std::string("/tf and /tf_static")
+                                         : resolve(options_.frames.pose_topic) + " (" + pose_type_ + ")",
+      options_.latch ? "latched" : "volatile", "/" + node, "/" + node);
+}
+
+Ros2Edge::~Ros2Edge() { stop(); }
+
+void Ros2Edge::stop() {
+  std::lock_guard stop_lock(stop_mutex_);
+  if (stopped_) return;
+  stopped_ = true;
+  running_ = false;
+  wake_.notify_all();
+  for (auto* t : {&intake_thread_, &publish_thread_, &service_thread_})
+    if (t->joinable()) t->join();
+  node_->close();
+  const Ros2Counters c = counters();
+  spdlog::info(
+      "ROS 2 edge stopped: {} clouds received, {} mapped, {} undecodable, {} waited out for TF, {} pushed "
+      "out "
+      "of the TF queue ({} still waiting), {} transforms refused, {} service requests, {} maps published",
+      c.clouds_received, c.clouds_submitted, c.clouds_undecodable, c.clouds_waited_out,
+      c.clouds_queue_dropped, pending_.size(), c.tf_refused, c.service_requests, c.maps_published);
+}
+
+Ros2Counters Ros2Edge::counters() const {
+  std::lock_guard lock(mutex_);
+  Ros2Counters c = counters_;
+  c.tf_wait_ms = tf_wait_.summary();
+  return c;
+}
+
+void Ros2Edge::takeTf(fdds::DataReader* reader, bool is_static) {
+  std::uint64_t refused = 0, undecodable = 0;
+  {
+    std::lock_guard lock(tf_mutex_);
+    takeAll(reader, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo&) {
+      try {
+        for (const std::string& why : ros2::addTfMessage(tf_, bytes, is_static)) {
+          ++refused;
+          spdlog::warn("{}: {}", is_static ? "/tf_static" : "/tf", why);
+        }
+      } catch (const ros2::DecodeError& e) {
+        ++undecodable;
+        spdlog::warn("{}: undecodable TFMessage: {}", is_static ? "/tf_static" : "/tf", e.what());
+      }
+    });
+  }
+  {
+    std::lock_guard lock(mutex_);
+    counters_.tf_refused += refused;
+    counters_.tf_undecodable += undecodable;
+  }
+  wake_.notify_all();  // waiting clouds may be placed now
+}
+
+void Ros2Edge::takePoses() {
+  std::uint64_t refused = 0, undecodable = 0;
+  {
+    std::lock_guard lock(tf_mutex_);
+    takeAll(pose_reader_, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo&) {
+      try {
+        if (auto why = ros2::addPoseMessage(tf_, pose_type_, bytes, options_.frames.base_frame)) {
+          ++refused;
+          spdlog::warn("{}: {}", options_.frames.pose_topic, *why);
+        }
+      } catch (const ros2::DecodeError& e) {
+        ++undecodable;
+        spdlog::warn("{}: undecodable {}: {}", options_.frames.pose_topic, pose_type_, e.what());
+      }
+    });
+  }
+  std::lock_guard lock(mutex_);
+  counters_.tf_refused += refused;
+  counters_.tf_undecodable += undecodable;
+  wake_.notify_all();
+}
+
+bool Ros2Edge::tryPlace(Pending& p, std::string& why) {
+  ros2::TfLookup pose;
+  {
+    std::lock_guard lock(tf_mutex_);
+    pose =
+        tf_.lookup(options_.frames.fixed_frame, p.cloud.header.frame_id, p.cloud.header.stamp.nanoseconds());
+  }
+  if (pose.status != ros2::TfLookup::Status::kOk) {
+    why = pose.reason;
+    return false;
+  }
+  const std::string robot = p.cloud.header.frame_id + "@" + options_.frames.cloud_topic;
+  std::uint64_t seq;
+  {
+    std::lock_guard lock(mutex_);
+    seq = next_seq_++;
+    ++counters_.clouds_submitted;
+    tf_wait_.add(std::chrono::duration<double, std::milli>(Clock::now() - p.arrived).count());
+  }
+  ScanJob job = toScanJob(std::move(p.cloud), ros2::sensorPoseOf(pose.transform), robot, seq,
+                          options_.pointcloud_min_z, options_.pointcloud_max_z);
+  job.publish_ns = p.source_ns;
+  job.received_ns = p.received_ns;
+  service_.submit(std::move(job));
+  return true;
+}
+
+void Ros2Edge::intakeLoop() {
+  while (running_) {
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait_for(lock, std::chrono::milliseconds(20));
+    }
+    if (!running_) break;
+    takeAll(cloud_reader_, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo& info) {
+      std::string why;
+      std::optional<ReceivedCloud> cloud = decodeCloud(bytes, why);
+      std::lock_guard lock(mutex_);
+      ++counters_.clouds_received;
+      if (!cloud) {
+        ++counters_.clouds_undecodable;
+        spdlog::warn("{}: PointCloud2 refused: {}", options_.frames.cloud_topic, why);
+        return;
+      }
+      if (pending_.size() >= options_.tf_queue) {
+        ++counters_.clouds_queue_dropped;
+        spdlog::warn("{}: cloud of frame '{}' pushed out of the TF queue ({} clouds wait for transforms)",
+                     options_.frames.cloud_topic, pending_.front().cloud.header.frame_id, pending_.size());
+        pending_.pop_front();
+      }
+      pending_.push_back({std::move(*cloud), Clock::now(), toNs(info.source_timestamp), msg::nowNs()});
+    });
+    // Place what can be placed, in arrival order; drop what waited too long (tf2's message filter).
+    std::deque<Pending> waiting;
+    {
+      std::lock_guard lock(mutex_);
+      waiting.swap(pending_);
+    }
+    const auto timeout = std::chrono::duration<double>(options_.tf_timeout_s);
+    std::deque<Pending> still;
+    for (Pending& p : waiting) {
+      std::string why;
+      if (tryPlace(p, why)) continue;
+      if (Clock::now() - p.arrived > timeout) {
+        spdlog::warn("{}: cloud of frame '{}' at {} ns dropped: no transform to '{}' within {} s ({})",
+                     options_.frames.cloud_topic, p.cloud.header.frame_id, p.cloud.header.stamp.nanoseconds(),
+                     options_.frames.fixed_frame, options_.tf_timeout_s, why);
+        std::lock_guard lock(mutex_);
+        ++counters_.clouds_waited_out;
+        continue;
+      }
+      still.push_back(std::move(p));
+    }
+    std::lock_guard lock(mutex_);
+    for (auto it = still.rbegin(); it != still.rend(); ++it) pending_.push_front(std::move(*it));
+  }
+}
+
+void Ros2Edge::publishMaps(bool force) {
+  auto wanted = [&](fdds::DataWriter* w) {
+    fdds::PublicationMatchedStatus s;
+    w->get_publication_matched_status(s);
+    return options_.latch || s.current_count > 0;  // octomap_server publishes only what someone reads
+  };
+  const bool any =
+      wanted(binary_writer_) || wanted(full_writer_) || wanted(projected_writer_) || wanted(centres_writer_);
+  const std::uint64_t version = service_.mapStore().version();
+  if (!any || (!force && version == published_version_)) return;
+  // A copy, so encoding does not hold the map's writer out.
+  std::unique_ptr<map::OccupancyMap> copy =
+      service_.mapStore().read([](const map::OccupancyMap& m, std::uint64_t) { return m.clone(); });
+  ros2::Header header;
+  header.frame_id = options_.frames.fixed_frame;
+  header.stamp = ros2::Time::fromNanoseconds(msg::nowNs());
+  auto write = [&](fdds::DataWriter* w, std::vector<std::uint8_t> bytes) {
+    if (!wanted(w)) return;
+    msg::RawSample s{std::move(bytes)};
+    if (!w->write(&s)) spdlog::warn("could not publish {}", w->get_topic()->get_name());
+  };
+  write(binary_writer_, octomapMessage(*copy, true, header));
+  write(full_writer_, octomapMessage(*copy, false, header));
+  write(projected_writer_,
+        projectedMapMessage(*copy, options_.occupancy_min_z, options_.occupancy_max_z, header));
+  write(centres_writer_, occupiedCentresMessage(*copy, header));
+  published_version_ = version;
+  std::lock_guard lock(mutex_);
+  ++counters_.maps_published;
+}
+
+void Ros2Edge::publishLoop() {
+  const auto period =
+      std::chrono::duration<double>(options_.map_publish_period_s > 0 ? options_.map_publish_period_s : 0.1);
+  while (running_) {
+    {
+      std::unique_lock lock(mutex_);
+      // Woken only by stop(): a steady period, not every cloud.
+      wake_.wait_for(lock, std::chrono::duration_cast<Clock::duration>(period),
+                     [&] { return !running_.load(); });
+    }
+    if (!running_) break;
+    try {
+      publishMaps(false);
+    } catch (const std::exception& e) {
+      spdlog::error("publishing the ROS 2 maps failed: {}", e.what());
+    }
+  }
+}
+
+void Ros2Edge::handle(Service& s) {
+  takeAll(s.requests, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo& info) {
+    // rmw_fastrtps: the reply goes to the client's reply reader (related_sample_identity's writer guid,
+    // when the client sent one), carrying the request's sequence number.
+    eprosima::fastrtps::rtps::SampleIdentity identity = info.sample_identity;
+    if (info.related_sample_identity.writer_guid() != eprosima::fastrtps::rtps::GUID_t::unknown())
+      identity.writer_guid(info.related_sample_identity.writer_guid());
+    std::vector<std::uint8_t> reply;
+    std::string why;
+    bool ok = true;
+    switch (s.kind) {
+      case Service::Kind::kClearBox:
+        if (auto box = toClearBox(bytes, why)) {
+          const CommandResult r = service_.execute(*box, "ROS 2 " + s.name);
+          if (r.status != Status::kOk) spdlog::warn("{}: {}", s.name, r.message);
+          reply = ros2::encodeEmpty();
+        } else {
+          ok = false;
+        }
+        break;
+      case Service::Kind::kReset:
+        try {
+          ros2::decodeEmpty(bytes);
+          service_.execute(ResetCommand{}, "ROS 2 " + s.name);
+          reply = ros2::encodeEmpty();
+        } catch (const ros2::DecodeError& e) {
+          why = e.what();
+          ok = false;
+        }
+        break;
+      case Service::Kind::kGetBinary:
+      case Service::Kind::kGetFull: {
+        try {
+          ros2::decodeEmpty(bytes);
+        } catch (const ros2::DecodeError& e) {
+          why = e.what();
+          ok = false;
+          break;
+        }
+        auto copy =
+            service_.mapStore().read([](const map::OccupancyMap& m, std::uint64_t) { return m.clone(); });
+        ros2::Header header;
+        header.frame_id = options_.frames.fixed_frame;
+        header.stamp = ros2::Time::fromNanoseconds(msg::nowNs());
+        reply = octomapMessage(*copy, s.kind == Service::Kind::kGetBinary, header);
+        break;
+      }
+    }
+    {
+      std::lock_guard lock(mutex_);
+      ++counters_.service_requests;
+      if (!ok) ++counters_.service_refused;
+    }
+    if (!ok) {
+      // ROS 2 services have no error reply: the client times out, as it would with octomap_server.
+      spdlog::warn("{}: request refused: {}", s.name, why);
+      return;
+    }
+    eprosima::fastrtps::rtps::WriteParams params;
+    params.related_sample_identity(identity);
+    msg::RawSample out{std::move(reply)};
+    if (!s.replies->write(&out, params)) spdlog::warn("{}: could not send the reply", s.name);
+  });
+}
+
+void Ros2Edge::serviceLoop() {
+  while (running_) {
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait_for(lock, std::chrono::milliseconds(20));
+    }
+    if (!running_) break;
+    for (auto& s : services_) handle(*s);
+  }
+}
+
+}  // namespace densemap::server::ros2_edge
