@@ -1,5 +1,6 @@
 #include "densemap/client/ros2_player.h"
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <thread>

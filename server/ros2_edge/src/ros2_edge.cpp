@@ -89,8 +89,12 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
     return node_->topic(ros2::topicOnDds(resolve(ros_name)), msg::rawCdrType(ros2::typeOnDds(ros_type)));
   };
   // Clouds: a best-effort reader matches sensor-data (best effort) and reliable publishers alike.
+  // Its history is ours to size (depth does not take part in matching): room for a burst between two
+  // takes by the intake thread, which moves clouds to its own TF queue at once.
+  ros2::Qos cloud_qos = ros2::Qos::sensorData();
+  cloud_qos.depth = 32;
   cloud_reader_ = node_->reader(topic(options_.frames.cloud_topic, ros2::kPointCloud2Type),
-                                msg::readerQos(ros2::Qos::sensorData()), nullptr);
+                                msg::readerQos(cloud_qos), nullptr);
   if (options_.frames.pose_topic.empty()) {
     tf_reader_ =
         node_->reader(topic(ros2::kTfTopic, ros2::kTfMessageType), msg::readerQos(ros2::Qos::tf()), nullptr);
