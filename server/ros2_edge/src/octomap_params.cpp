@@ -14,14 +14,17 @@ namespace densemap::server::ros2_edge {
 namespace {
 
 /// Parameters as flat names ("sensor_model.max_range"; ROS 1's '/' separator accepted too).
-void flatten(const YAML::Node& node, const std::string& prefix, std::map<std::string, YAML::Node>& out) {
+void flatten(const YAML::Node& node, const std::string& prefix, std::map<std::string, YAML::Node>& out,
+             int depth = 0) {
+  if (depth > 16) throw std::invalid_argument("parameters nested deeper than 16 levels");
   for (const auto& kv : node) {
+    if (!kv.first.IsScalar()) throw std::invalid_argument("a parameter name that is not a plain name");
     std::string key = kv.first.as<std::string>();
     for (char& c : key)
       if (c == '/') c = '.';
     const std::string name = prefix.empty() ? key : prefix + "." + key;
     if (kv.second.IsMap())
-      flatten(kv.second, name, out);
+      flatten(kv.second, name, out, depth + 1);
     else
       out[name] = kv.second;
   }
@@ -76,13 +79,19 @@ std::vector<std::string> applyOctomapParamsText(const std::string& yaml, const s
   std::map<std::string, YAML::Node> params;
   bool found = false;
   // The wildcard first, so the node's own section wins.
-  for (const std::string& section : {std::string("/**"), node_name, "/" + node_name}) {
-    const YAML::Node s = root[section];
-    if (!s) continue;
-    if (!s.IsMap() || !s["ros__parameters"] || !s["ros__parameters"].IsMap())
-      throw std::invalid_argument(name + ": section '" + section + "' has no ros__parameters map");
-    flatten(s["ros__parameters"], "", params);
-    found = true;
+  try {
+    for (const std::string& section : {std::string("/**"), node_name, "/" + node_name}) {
+      const YAML::Node s = root[section];
+      if (!s) continue;
+      if (!s.IsMap() || !s["ros__parameters"] || !s["ros__parameters"].IsMap())
+        throw std::invalid_argument("section '" + section + "' has no ros__parameters map");
+      flatten(s["ros__parameters"], "", params);
+      found = true;
+    }
+  } catch (const YAML::Exception& e) {
+    throw std::invalid_argument(name + ": not a ROS 2 parameters file (" + e.what() + ")");
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(name + ": " + e.what());
   }
   if (!found)
     throw std::invalid_argument(name + ": no section for node '" + node_name +
@@ -116,6 +125,8 @@ std::vector<std::string> applyOctomapParamsText(const std::string& yaml, const s
       bindings.emplace(p, Binding{"pointcloud-max-z", &t.ros2->pointcloud_max_z});
   }
   std::vector<std::string> ignored;
+  // Every value is converted before any is set: a file with one wrong value changes nothing.
+  std::vector<std::function<void()>> assignments;
   for (const auto& [param, value] : params) {
     auto b = bindings.find(param);
     if (b == bindings.end()) {
@@ -126,22 +137,25 @@ std::vector<std::string> applyOctomapParamsText(const std::string& yaml, const s
       continue;
     }
     if (given(b->second.flag)) continue;  // the command line wins
+    const YAML::Node& node = value;
     try {
       std::visit(
           [&](auto* target) {
             using T = std::remove_pointer_t<decltype(target)>;
-            *target = value.as<T>();
+            T converted = node.as<T>();
+            assignments.push_back([target, converted] { *target = converted; });
           },
           b->second.target);
     } catch (const YAML::Exception&) {
       std::ostringstream v;
-      v << value;
+      v << node;
       throw std::invalid_argument(name + ": parameter " + param + " = '" + v.str() + "' is not a " +
                                   (std::holds_alternative<double*>(b->second.target) ? "number"
                                    : std::holds_alternative<bool*>(b->second.target) ? "bool"
                                                                                      : "string"));
     }
   }
+  for (const auto& assign : assignments) assign();
   return ignored;
 }
 
