@@ -2,7 +2,8 @@
 # The main job: installs what is missing, builds, starts densemap-server, replays the built-in simulated
 # LiDAR (or the dataset given as the first argument) as a robot at 10 Hz and a simulated 16-beam LiDAR that
 # the server densifies with ILN, runs a few queries, renders a
-# PNG, saves the map, prints a summary, and stops everything it started.
+# PNG, saves the map, prints a summary, and stops everything it started. A third, ROS 2 robot publishes
+# PointCloud2 + /tf to the server's ROS 2 edge (octomap_server's topics, no ROS installation needed).
 #   ./tools/demo.sh                         # simulator
 #   ./tools/demo.sh ../shared/data/kitti00  # any source densemap-replay reads
 set -euo pipefail
@@ -23,7 +24,7 @@ dds=(--domain "$domain" --loopback)
 
 echo "== starting densemap-server on DDS domain $domain (loopback; log in out/server.log)"
 "$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" --densify iln \
-  --map-dir "$out/maps" \
+  --map-dir "$out/maps" --ros2 \
   > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true' EXIT
@@ -35,6 +36,10 @@ echo "== replaying a 16-beam LiDAR as sparse-1, 40 m to the side: the server den
 echo "   with ILN (models/iln) before mapping them"
 "$bin/client/densemap-replay" "${dds[@]}" --source "sim:scans=10,beams=16" --rate 10 --robot-prefix sparse \
   --first-robot 1 --robot-offset 0,40,0 --log-level warn
+
+echo "== a ROS 2 robot: the simulator publishing sensor_msgs/PointCloud2 on /cloud_in and its pose on /tf, as a"
+echo "   ROS 2 LiDAR driver and tf2 do; the server's ROS 2 edge places each cloud through TF (README \"For ROS 2 users\")"
+"$bin/client/densemap-replay" "${dds[@]}" --ros2 --source "sim:scans=10" --rate 10 --log-level warn
 
 echo "== queries"
 query() { "$bin/client/densemap-query" "${dds[@]}" "$@"; }
@@ -57,6 +62,7 @@ echo "== stopping the server (SIGINT: drains its queues and saves the map)"
 kill -INT "$server"
 wait "$server"
 trap - EXIT
+grep "ROS 2 edge stopped" "$out/server.log" || true
 tail -n 3 "$out/server.log"
 echo "== done: out/demo_map.png (left: occupied cells from above by height; right: probability at z = 1 m),"
 echo "   out/demo_map.bt (open with octovis), out/maps/demo.ot (saved on request), out/replay.json (counts"

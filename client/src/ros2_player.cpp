@@ -70,6 +70,7 @@ Ros2PlayResult playBag(const ros2::BagReader& bag, msg::DdsNode& node, const Ros
   const auto& messages = bag.messages();
   if (messages.empty()) return r;
   const auto start = Clock::now();
+  r.first_sent = start;
   const std::int64_t t0 = messages.front().log_time_ns;
   cli::Progress progress("playing", messages.size());
   for (const auto& m : messages) {
@@ -108,6 +109,7 @@ Ros2PlayResult playScans(const std::vector<io::Scan>& scans, msg::DdsNode& node,
   waitForReader(tf_writer, options.wait_s);
   Ros2PlayResult r;
   const auto start = Clock::now();
+  r.first_sent = start;
   const auto period = std::chrono::duration<double>(options.rate > 0 ? 1.0 / options.rate : 0.0);
   cli::Progress progress("publishing", scans.size());
   for (std::size_t i = 0; i < scans.size(); ++i) {

@@ -127,18 +127,22 @@ std::vector<io::Scan> asPlacedThroughTf(const std::vector<io::Scan>& scans) {
   return out;
 }
 
+/// The simulator's scans published as a ROS 2 robot does (PointCloud2 + /tf at 10 Hz), from a participant
+/// of its own that leaves once they are sent.
+void publishAsRos2Robot(int domain, const std::vector<io::Scan>& scans) {
+  Ros2TestNode robot(domain, "sim_robot");
+  client::Ros2PlayOptions o;
+  o.rate = 10;
+  o.wait_s = 10;
+  EXPECT_EQ(client::playScans(scans, robot.node, o).clouds, scans.size());
+}
+
 TEST(Ros2Edge, ASimulatedRos2RobotIsServedExactly) {
   // No data needed: the simulator publishing PointCloud2 + /tf as a ROS 2 robot does.
   constexpr int kDomain = 183;
   Ros2Server server(serviceOptions(kDomain), ros2Options(), kDomain);
   const std::vector<io::Scan> scans = simScans(6);
-  {
-    Ros2TestNode robot(kDomain, "sim_robot");
-    client::Ros2PlayOptions o;
-    o.rate = 10;
-    o.wait_s = 10;
-    EXPECT_EQ(client::playScans(scans, robot.node, o).clouds, scans.size());
-  }
+  publishAsRos2Robot(kDomain, scans);
   ASSERT_TRUE(server.waitForMapped(scans.size()));
   EXPECT_EQ(server.edge.counters().clouds_waited_out, 0u);
   expectSameMap(*served(server), *offlineOf(asPlacedThroughTf(scans)));
@@ -157,12 +161,7 @@ TEST(Ros2Edge, OctomapBinaryReadsBackWithOctoMapAndProjectedMapMatchesTheBand) {
   auto* grid = tool.subscriber("/projected_map", ros2::kOccupancyGridType, qos);
   auto* centres = tool.subscriber("/octomap_point_cloud_centers", ros2::kPointCloud2Type, qos);
   const std::vector<io::Scan> scans = simScans(3);
-  {
-    Ros2TestNode robot(kDomain, "sim_robot");
-    client::Ros2PlayOptions o;
-    o.wait_s = 10;
-    client::playScans(scans, robot.node, o);
-  }
+  publishAsRos2Robot(kDomain, scans);
   ASSERT_TRUE(server.waitForMapped(scans.size()));
   // The publications after the last scan: wait two periods, then keep the newest of each.
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
@@ -247,12 +246,7 @@ TEST(Ros2Edge, ServicesAsRmwFastrtpsCallsThemGetMatchedReplies) {
   constexpr int kDomain = 185;
   Ros2Server server(serviceOptions(kDomain), ros2Options(), kDomain);
   const std::vector<io::Scan> scans = simScans(3);
-  {
-    Ros2TestNode robot(kDomain, "sim_robot");
-    client::Ros2PlayOptions o;
-    o.wait_s = 10;
-    client::playScans(scans, robot.node, o);
-  }
+  publishAsRos2Robot(kDomain, scans);
   ASSERT_TRUE(server.waitForMapped(scans.size()));
   Ros2TestNode client(kDomain, "rqt");
   // A client as rmw_fastrtps makes one: request writer and reply reader, the reader's GUID sent in the

@@ -3,6 +3,7 @@
 // as `ros2 bag play` does; any other source's scans go out as PointCloud2 + TF.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -28,7 +29,8 @@ struct Ros2PlayOptions {
 struct Ros2PlayResult {
   std::size_t messages = 0;
   std::size_t clouds = 0;
-  double seconds = 0;
+  double seconds = 0;  ///< from the first message to the end (delivery waits included)
+  std::chrono::steady_clock::time_point first_sent{};
 };
 
 /// Plays every message of `bag` (or only the first `max_clouds` clouds and what comes before the next).
