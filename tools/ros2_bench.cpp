@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
       std::vector<double> v;
       for (const Run& r : runs)
         if (r.kind == kind && r.fast == fast) v.push_back(field(r));
-      return util::percentile(v, 50.0);
+      return util::percentile(v, 0.5);
     };
     std::printf("\nmedians over %d rounds (ros2 / densemap)\n", rounds);
     const auto p50 = [](const Run& r) { return r.publish_to_map.p50_ms; };

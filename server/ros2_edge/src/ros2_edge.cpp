@@ -265,54 +265,62 @@ bool Ros2Edge::tryPlace(Pending& p, std::string& why) {
   return true;
 }
 
+void Ros2Edge::placeWaiting() {
+  // In arrival order; what waited too long is dropped (tf2's message filter). pending_ is this thread's.
+  const auto timeout = std::chrono::duration<double>(options_.tf_timeout_s);
+  std::deque<Pending> still;
+  for (Pending& p : pending_) {
+    std::string why;
+    if (tryPlace(p, why)) continue;
+    if (Clock::now() - p.arrived > timeout) {
+      spdlog::warn("{}: cloud of frame '{}' at {} ns dropped: no transform to '{}' within {} s ({})",
+                   options_.frames.cloud_topic, p.cloud.header.frame_id, p.cloud.header.stamp.nanoseconds(),
+                   options_.frames.fixed_frame, options_.tf_timeout_s, why);
+      std::lock_guard lock(mutex_);
+      ++counters_.clouds_waited_out;
+      continue;
+    }
+    still.push_back(std::move(p));
+  }
+  pending_.swap(still);
+}
+
 void Ros2Edge::intakeLoop() {
+  msg::RawSample sample;
+  fdds::SampleInfo info;
   while (running_) {
     {
       std::unique_lock lock(mutex_);
       wake_.wait_for(lock, std::chrono::milliseconds(20));
     }
     if (!running_) break;
-    takeAll(cloud_reader_, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo& info) {
+    placeWaiting();  // transforms may have come
+    // One cloud at a time, each placed before the next is taken: the TF queue holds only clouds that wait
+    // for a transform, and a busy pipeline (submit blocks under --overflow-policy wait) leaves the rest in
+    // DDS, where a best-effort publisher's samples are dropped as ROS 2's would be.
+    while (running_ && cloud_reader_->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
       std::string why;
-      std::optional<ReceivedCloud> cloud = decodeCloud(bytes, why);
-      std::lock_guard lock(mutex_);
-      ++counters_.clouds_received;
+      std::optional<ReceivedCloud> cloud = decodeCloud(sample.bytes, why);
+      {
+        std::lock_guard lock(mutex_);
+        ++counters_.clouds_received;
+        if (!cloud) ++counters_.clouds_undecodable;
+      }
       if (!cloud) {
-        ++counters_.clouds_undecodable;
         spdlog::warn("{}: PointCloud2 refused: {}", options_.frames.cloud_topic, why);
-        return;
+        continue;
       }
       if (pending_.size() >= options_.tf_queue) {
-        ++counters_.clouds_queue_dropped;
         spdlog::warn("{}: cloud of frame '{}' pushed out of the TF queue ({} clouds wait for transforms)",
                      options_.frames.cloud_topic, pending_.front().cloud.header.frame_id, pending_.size());
         pending_.pop_front();
+        std::lock_guard lock(mutex_);
+        ++counters_.clouds_queue_dropped;
       }
       pending_.push_back({std::move(*cloud), Clock::now(), toNs(info.source_timestamp), msg::nowNs()});
-    });
-    // Place what can be placed, in arrival order; drop what waited too long (tf2's message filter).
-    std::deque<Pending> waiting;
-    {
-      std::lock_guard lock(mutex_);
-      waiting.swap(pending_);
+      placeWaiting();
     }
-    const auto timeout = std::chrono::duration<double>(options_.tf_timeout_s);
-    std::deque<Pending> still;
-    for (Pending& p : waiting) {
-      std::string why;
-      if (tryPlace(p, why)) continue;
-      if (Clock::now() - p.arrived > timeout) {
-        spdlog::warn("{}: cloud of frame '{}' at {} ns dropped: no transform to '{}' within {} s ({})",
-                     options_.frames.cloud_topic, p.cloud.header.frame_id, p.cloud.header.stamp.nanoseconds(),
-                     options_.frames.fixed_frame, options_.tf_timeout_s, why);
-        std::lock_guard lock(mutex_);
-        ++counters_.clouds_waited_out;
-        continue;
-      }
-      still.push_back(std::move(p));
-    }
-    std::lock_guard lock(mutex_);
-    for (auto it = still.rbegin(); it != still.rend(); ++it) pending_.push_front(std::move(*it));
   }
 }
 

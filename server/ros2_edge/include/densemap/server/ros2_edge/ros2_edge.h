@@ -85,6 +85,7 @@ class Ros2Edge {
   void takeTf(eprosima::fastdds::dds::DataReader* reader, bool is_static);
   void takePoses();
   void intakeLoop();
+  void placeWaiting();
   void publishLoop();
   void serviceLoop();
   void publishMaps(bool force);
@@ -108,9 +109,9 @@ class Ros2Edge {
 
   mutable std::mutex tf_mutex_;
   ros2::TfBuffer tf_;
-  mutable std::mutex mutex_;  // counters, pending, wake-ups
+  mutable std::mutex mutex_;  // counters, wake-ups
   std::condition_variable wake_;
-  std::deque<Pending> pending_;
+  std::deque<Pending> pending_;  // the intake thread's: clouds waiting for TF
   Ros2Counters counters_;
   LatencyWindow tf_wait_;
   std::uint64_t next_seq_ = 0;
