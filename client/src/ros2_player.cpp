@@ -27,7 +27,13 @@ bool waitForReader(fdds::DataWriter* w, double wait_s) {
   while (Clock::now() < until) {
     fdds::PublicationMatchedStatus s;
     w->get_publication_matched_status(s);
-    if (s.current_count > 0) return true;
+    if (s.current_count > 0) {
+      // Matching is not symmetric: the reader matches this writer a moment after this writer matched it,
+      // and a best-effort sample sent in between is lost. A subscriber's side is not visible from here, so
+      // give it a moment (ros2 bag play's --delay plays the same role).
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      return true;
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;

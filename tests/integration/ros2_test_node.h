@@ -33,6 +33,16 @@ struct Ros2Server {
     d.loopback = true;
     return d;
   }
+  /// Waits until the edge has matched a cloud publisher and a TF (or pose) publisher: a publisher's own
+  /// match comes first, and what it sends before the edge's reader matches it is lost.
+  bool waitForPublishers(std::chrono::seconds timeout = std::chrono::seconds(10)) {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < until) {
+      if (edge.matchedCloudPublishers() > 0 && edge.matchedPosePublishers() > 0) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
   /// Waits until `n` clouds are in the map (or `timeout`); true when they are.
   bool waitForMapped(std::uint64_t n, std::chrono::seconds timeout = std::chrono::seconds(60)) {
     const auto until = std::chrono::steady_clock::now() + timeout;

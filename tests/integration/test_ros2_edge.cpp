@@ -350,6 +350,7 @@ TEST(Ros2Edge, BadCloudsAndTransformsAreCountedAndChangeNothing) {
   auto* tf = robot.publisher("/tf", ros2::kTfMessageType, ros2::Qos::tf());
   ASSERT_TRUE(Ros2TestNode::waitMatched(clouds));
   ASSERT_TRUE(Ros2TestNode::waitMatched(tf));
+  ASSERT_TRUE(server.waitForPublishers());
   // A good scan first: the map it makes must not change afterwards.
   const ros2::ScanMessages good = ros2::scanMessages(scans[0], 1'000'000'000, "map", "lidar");
   Ros2TestNode::write(tf, good.transform);
@@ -399,6 +400,7 @@ TEST(Ros2Edge, ACloudWaitsForItsTransformAndIsDroppedWhenItNeverComes) {
   auto* tf = robot.publisher("/tf", ros2::kTfMessageType, ros2::Qos::tf());
   ASSERT_TRUE(Ros2TestNode::waitMatched(clouds));
   ASSERT_TRUE(Ros2TestNode::waitMatched(tf));
+  ASSERT_TRUE(server.waitForPublishers());
   // Cloud first, its transform 200 ms later: the cloud waits (tf2's message filter) and is mapped.
   const ros2::ScanMessages first = ros2::scanMessages(scans[0], 1'000'000'000, "map", "lidar");
   Ros2TestNode::write(clouds, first.cloud);
@@ -429,6 +431,7 @@ TEST(Ros2Edge, APoseTopicInsteadOfTf) {
   auto* odom = robot.publisher("/odom", ros2::kOdometryType, ros2::Qos::reliableDefault());
   ASSERT_TRUE(Ros2TestNode::waitMatched(clouds));
   ASSERT_TRUE(Ros2TestNode::waitMatched(odom));
+  ASSERT_TRUE(server.waitForPublishers());
   for (std::size_t i = 0; i < scans.size(); ++i) {
     const std::int64_t stamp = 1'000'000'000 * std::int64_t(i + 1);
     ros2::PoseStamped p;

@@ -26,7 +26,9 @@ if grep -rnE '#include <torch/' core server client | grep -v 'core/src/densify/i
   echo "include graph: libtorch included outside core/src/densify/iln_upsampler.cpp"; bad=1
 fi
 check "the service (server/include, server/src) includes DDS, an edge, the clients or libtorch" \
-  server/include server/src -- '#include [<"](densemap/(msg|client|server/dds_edge)/|fastdds|fastrtps|torch/)'
+  server/include server/src -- '#include [<"](densemap/(msg|client|server/dds_edge|server/ros2_edge)/|fastdds|fastrtps|torch/)'
+# The two edges stand side by side: the ROS 2 edge does not reach into the DDS edge.
+check "the ROS 2 edge includes the DDS edge" server/ros2_edge -- '#include [<"]densemap/server/dds_edge/'
 check "server/ or client/ includes tools/" server client -- '#include "(common|tools)/'
 check "client/ includes the server" client -- '#include "densemap/server/'
 [ "$bad" = 0 ] && echo "include graph: edge -> service -> core, nothing runs back up"

@@ -192,6 +192,18 @@ Ros2Counters Ros2Edge::counters() const {
   return c;
 }
 
+namespace {
+std::size_t matched(fdds::DataReader* r) {
+  if (!r) return 0;
+  fdds::SubscriptionMatchedStatus s;
+  r->get_subscription_matched_status(s);
+  return static_cast<std::size_t>(s.current_count);
+}
+}  // namespace
+
+std::size_t Ros2Edge::matchedCloudPublishers() const { return matched(cloud_reader_); }
+std::size_t Ros2Edge::matchedPosePublishers() const { return matched(tf_reader_) + matched(pose_reader_); }
+
 void Ros2Edge::takeTf(fdds::DataReader* reader, bool is_static) {
   std::uint64_t refused = 0, undecodable = 0;
   {

@@ -72,6 +72,10 @@ class Ros2Edge {
   /// Stops taking clouds and requests, stops the threads; idempotent. Clouds still waiting are dropped.
   void stop();
   Ros2Counters counters() const;
+  /// Publishers of clouds and of TF (or poses) this edge's readers have matched. Matching is not
+  /// symmetric: a publisher may see the edge before the edge sees it, and what it sends until then is lost.
+  std::size_t matchedCloudPublishers() const;
+  std::size_t matchedPosePublishers() const;
 
  private:
   class Listener;
