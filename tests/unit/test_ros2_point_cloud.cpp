@@ -180,6 +180,18 @@ TEST(PointCloud2, RefusesInconsistentSteps) {
   EXPECT_FALSE(errorOf(c).empty());
 }
 
+TEST(PointCloud2, AnEmptyCloudHasNoPointsWhateverItsHeight) {
+  // Width 0 and a claimed height of 2^32 - 1 rows (found by fuzz_ros2_point_cloud: it walked every row).
+  std::vector<std::uint8_t> storage;
+  PointCloud2 c = makeCloud(kPoints, {}, storage);
+  c.width = 0;
+  c.height = 0xFFFFFFFFu;
+  c.row_step = 0;
+  const CloudPoints p = cloudPoints(c);
+  EXPECT_TRUE(p.points.empty());
+  EXPECT_EQ(p.nonfinite_points, 0u);
+}
+
 TEST(PointCloud2, RefusesDuplicateCoordinateFields) {
   std::vector<std::uint8_t> storage;
   PointCloud2 c = makeCloud(kPoints, {}, storage);

@@ -72,6 +72,8 @@ CloudPoints cloudPoints(const PointCloud2& cloud) {
                       " bytes, row_step * height = " + std::to_string(cloud.row_step) + " * " +
                       std::to_string(cloud.height) + " = " + std::to_string(needed));
   CloudPoints out;
+  // An empty cloud: nothing to walk (a claimed height of 4e9 rows of width 0 must not take seconds).
+  if (cloud.width == 0 || cloud.height == 0) return out;
   out.points.reserve(std::size_t{cloud.width} * cloud.height);
   for (std::uint32_t r = 0; r < cloud.height; ++r) {
     const std::uint8_t* row = cloud.data.data() + std::size_t{r} * cloud.row_step;
