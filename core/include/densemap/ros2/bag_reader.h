@@ -42,6 +42,15 @@ class BagReader {
   virtual std::string describe() const = 0;
 };
 
+/// What a rosbag2 directory's metadata.yaml says: the storage ("sqlite3", "mcap") and its files, relative to
+/// the directory (checked not to leave it). Throws BagError naming `name` (unreadable YAML, a compressed
+/// bag, no files, a path outside the directory).
+struct BagMetadata {
+  std::string storage;
+  std::vector<std::string> files;
+};
+BagMetadata parseBagMetadata(const std::string& yaml, const std::string& name);
+
 /// True when `path` looks like a ROS 2 recording: a .mcap or .db3 file, or a directory holding
 /// metadata.yaml (rosbag2).
 bool isBag(const std::string& path);
