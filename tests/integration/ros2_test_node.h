@@ -95,27 +95,26 @@ struct Ros2TestNode {
     }
     return std::nullopt;
   }
-  static bool waitMatched(fdds::DataWriter* w,
+  /// Until `entity` (a writer or a reader) has matched a peer, or `timeout`.
+  template <class Entity>
+  static bool waitMatched(Entity* entity,
                           std::chrono::milliseconds timeout = std::chrono::milliseconds(10000)) {
     const auto until = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < until) {
-      fdds::PublicationMatchedStatus s;
-      w->get_publication_matched_status(s);
-      if (s.current_count > 0) return true;
+      if (matchedCount(entity) > 0) return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return false;
   }
-  static bool waitMatched(fdds::DataReader* r,
-                          std::chrono::milliseconds timeout = std::chrono::milliseconds(10000)) {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < until) {
-      fdds::SubscriptionMatchedStatus s;
-      r->get_subscription_matched_status(s);
-      if (s.current_count > 0) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return false;
+  static int matchedCount(fdds::DataWriter* w) {
+    fdds::PublicationMatchedStatus s;
+    w->get_publication_matched_status(s);
+    return s.current_count;
+  }
+  static int matchedCount(fdds::DataReader* r) {
+    fdds::SubscriptionMatchedStatus s;
+    r->get_subscription_matched_status(s);
+    return s.current_count;
   }
   msg::DdsNode node;
 };
