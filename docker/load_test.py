@@ -150,7 +150,7 @@ def run_native(a, work):
     dds = ["--domain", str(a.domain), "--loopback"]
     log = open(os.path.join(work, "server.log"), "w")
     server = subprocess.Popen([server_bin, *dds, "--resolution", str(a.resolution), "--statistics-period", "1",
-                               *a.server_args.split()], stdout=log, stderr=subprocess.STDOUT)
+                               "--data-dir", os.path.join(work, "server-data"), *a.server_args.split()], stdout=log, stderr=subprocess.STDOUT)
     procs = []
     sampler = Sampler(server.pid)
     try:

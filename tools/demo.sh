@@ -23,8 +23,10 @@ bin="$root/build"
 dds=(--domain "$domain" --loopback)
 
 echo "== starting densemap-server on DDS domain $domain (loopback; log in out/server.log)"
+# A fresh data directory: the journal and snapshots of an earlier demo would otherwise be recovered.
+rm -rf "$out/server-data"
 "$bin/server/densemap-server" "${dds[@]}" --resolution 0.2 --save-on-exit "$out/demo_map.bt" --densify iln \
-  --map-dir "$out/maps" --ros2 \
+  --map-dir "$out/maps" --data-dir "$out/server-data" --ros2 \
   > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true' EXIT

@@ -43,6 +43,22 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--output", output, "save the map: .bt or .ot (octree backend)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
+  int loops = 1;
+  app.add_option("--loops", loops,
+                 "map the range this many times in order (as densemap-replay --loops sends it)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  std::string order_file;
+  app.add_option(
+      "--order", order_file,
+      "map the scans in this order: a file of sequence numbers as densemap-replay numbers them (scan "
+      "= first of the range + number mod its length), e.g. a server's applied order "
+      "(densemap-query progress)");
+  bool as_sent = false;
+  app.add_flag(
+      "--as-sent", as_sent,
+      "take each pose through position + unit quaternion, as densemap-replay sends it and the server "
+      "rebuilds it: the map then equals the server's bit for bit");
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &update_table, &logging_table}))
     return *rc;
   densemap::util::retainFreedMemory();
@@ -60,11 +76,32 @@ int main(int argc, char** argv) {
     update::UpdateEngine engine(opt);
     update::UpdateStats total;
     std::size_t done = 0, rejected_scans = 0;
-    cli::Progress progress("mapping", range.last - range.first + 1);
-    for (std::size_t i = range.first; i <= range.last; ++i) {
-      const io::Scan s = src->read(i);
+    const std::size_t per_loop = range.last - range.first + 1;
+    std::vector<std::uint64_t> order;  // sequence numbers in the order to map them
+    if (!order_file.empty()) {
+      std::ifstream in(order_file);
+      if (!in) throw std::runtime_error("cannot read --order " + order_file);
+      std::uint64_t seq = 0;
+      while (in >> seq) order.push_back(seq);
+      if (!in.eof()) throw std::runtime_error("--order " + order_file + ": not a list of sequence numbers");
+    } else {
+      for (std::uint64_t n = 0; n < per_loop * static_cast<std::uint64_t>(loops); ++n) order.push_back(n);
+    }
+    cli::Progress progress("mapping", order.size());
+    std::vector<std::optional<io::Scan>> cached(per_loop);  // each scan read once
+    for (std::size_t n = 0; n < order.size(); ++n) {
+      const std::size_t k = static_cast<std::size_t>(order[n] % per_loop), i = range.first + k;
+      if (!cached[k]) {
+        io::Scan read = src->read(i);
+        if (as_sent)
+          read.pose = io::poseFromQuaternion(
+              {read.pose.translation().x(), read.pose.translation().y(), read.pose.translation().z()},
+              io::quaternionOf(read.pose));
+        cached[k] = std::move(read);
+      }
+      const io::Scan& s = *cached[k];
       auto st = engine.insert(*m, s.worldPoints(), s.origin());
-      progress.step(i - range.first + 1);
+      progress.step(n + 1);
       if (!st) {
         ++rejected_scans;
         spdlog::warn("scan {}: sensor origin is not finite or outside the map's key range; scan skipped", i);

@@ -8,7 +8,9 @@ server="${DENSEMAP_SERVER_BIN:-$root/build/server/densemap-server}"
 runs="${1:-2}"
 for ((i = 1; i <= runs; i++)); do
   for densify in none iln; do
-    "$server" --domain 89 --loopback --log-level warn --densify "$densify" > /dev/null 2>&1 &
+    rm -rf "/tmp/densemap-idle-rss-data"
+    "$server" --domain 89 --loopback --log-level warn --densify "$densify" --data-dir /tmp/densemap-idle-rss-data \
+      > /dev/null 2>&1 &
     pid=$!
     sleep 4
     rss=$(awk '/VmRSS/ {print $2}' "/proc/$pid/status")

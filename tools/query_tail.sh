@@ -21,7 +21,9 @@ out="$root/out/bench"
 mkdir -p "$out"
 dds=(--domain "${DENSEMAP_DOMAIN:-91}" --loopback)
 # shellcheck disable=SC2086
-"${SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 ${SERVER_ARGS:-} > "$out/query_tail_server.log" 2>&1 &
+rm -rf "$out/query_tail_data"  # each run starts from an empty map
+"${SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 --data-dir "$out/query_tail_data" \
+  ${SERVER_ARGS:-} > "$out/query_tail_server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
 sleep 2

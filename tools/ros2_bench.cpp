@@ -58,6 +58,8 @@ class MappedWatch {
 server::ServiceOptions serviceOptions() {
   server::ServiceOptions o;
   o.map_dir = (std::filesystem::temp_directory_path() / "densemap-ros2-bench-maps").string();
+  o.data_dir = o.map_dir + "-data";
+  std::filesystem::remove_all(o.data_dir);  // each server of the bench starts from an empty map
   return o;
 }
 

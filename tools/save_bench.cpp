@@ -77,6 +77,7 @@ int main(int argc, char** argv) {
     const auto dir =
         std::filesystem::temp_directory_path() / ("densemap-save-bench-" + std::to_string(::getpid()));
     options.map_dir = dir.string();
+    options.data_dir = (dir / "data").string();
     server::MapService service(options);
     std::vector<io::Scan> all;
     cli::Progress loading("loading", range.last - range.first + 1);

@@ -17,7 +17,9 @@ dds=(--domain "$domain" --loopback)
 # keep the defaults: at real-time priority they would take the cores from the map); DENSEMAP_SERVER_BIN
 # runs another densemap-server binary (A/B runs against an older build).
 # shellcheck disable=SC2086
-"${DENSEMAP_SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 ${DENSEMAP_SERVER_ARGS:-} > "$out/server.log" 2>&1 &
+rm -rf "$out/server-data" "$out/server-data-realtime"  # each run starts from an empty map
+"${DENSEMAP_SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 --data-dir "$out/server-data" \
+  ${DENSEMAP_SERVER_ARGS:-} > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
 seconds=$(( loops * 6 ))
@@ -54,7 +56,7 @@ if chrt -f 10 true 2>/dev/null; then
   wait $server 2>/dev/null || true
   # shellcheck disable=SC2086
   "${DENSEMAP_SERVER_BIN:-$bin/server/densemap-server}" "${dds[@]}" --resolution 0.2 --realtime-priority 10 \
-    ${DENSEMAP_SERVER_ARGS:-} > "$out/server_realtime.log" 2>&1 &
+    --data-dir "$out/server-data-realtime" ${DENSEMAP_SERVER_ARGS:-} > "$out/server_realtime.log" 2>&1 &
   server=$!
   sleep 2
   "$bin/client/densemap-replay" "${dds[@]}" --source "$source" --rate 10 --loops "$loops" \

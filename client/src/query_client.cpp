@@ -83,6 +83,8 @@ std::string toString(msg::ScanOutcome o) {
       return "rejected";
     case msg::SCAN_DROPPED:
       return "dropped";
+    case msg::SCAN_DUPLICATE:
+      return "duplicate";
   }
   return "outcome " + std::to_string(static_cast<unsigned>(o));
 }

@@ -1,6 +1,7 @@
 // densemap-query: every query kind from the command line, human-readable or --json, and `render` (PNG).
 #include <cstdio>
 #include <sstream>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
@@ -13,6 +14,7 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/dds_options_cli.h"
+#include "densemap/msg/densemapPubSubTypes.h"
 
 using namespace densemap;
 using nlohmann::json;
@@ -54,7 +56,11 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
                       {"rejected", r.rejected()},
                       {"points_rejected", r.points_rejected()},
                       {"queue_depth", r.queue_depth()},
-                      {"last_sequence", r.last_sequence()}});
+                      {"last_sequence", r.last_sequence()},
+                      {"duplicates", r.duplicates()},
+                      {"durable_scans", r.durable_scans()},
+                      {"journaled_scans", r.journaled_scans()},
+                      {"last_durable_sequence", r.last_durable_sequence()}});
   }
   for (const auto& st : s.stages()) {
     stages.push_back({{"name", st.name()},
@@ -74,7 +80,15 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
           {"queries_failed", s.queries_failed()},
           {"commands_done", s.commands_done()},
           {"commands_failed", s.commands_failed()},
-          {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6}};
+          {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6},
+          {"journal",
+           {{"on", s.journal()},
+            {"failed", s.journal_failed()},
+            {"bytes", s.journal_bytes()},
+            {"syncs", s.journal_syncs()},
+            {"failures", s.journal_failures()},
+            {"snapshots", s.snapshots()},
+            {"recovered_records", s.recovered_records()}}}};
 }
 
 /// Fails with the reply's status and message when it is not OK.
@@ -125,6 +139,8 @@ int main(int argc, char** argv) {
   auto* server_stats = app.add_subcommand(
       "statistics",
       "the server's next periodic statistics: per-robot counters, latencies, memory (a health check)");
+  auto* progress = app.add_subcommand(
+      "progress", "what the server keeps of each robot: its durable sequence numbers (the journal)");
   std::string map_name;
   auto* save = app.add_subcommand("save", "save the map as NAME.bt or NAME.ot in the server's map directory");
   save->add_option("name", map_name,
@@ -152,6 +168,51 @@ int main(int argc, char** argv) {
     dds.name = "densemap-query";
     msg::DdsNode node(dds);
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    if (*progress) {
+      // Published (transient local): the last message reaches a reader that joins later.
+      auto* topic = node.topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
+      auto* reader = node.reader(topic, msg::progressReaderQos(), nullptr);
+      msg::RobotProgress p;
+      eprosima::fastdds::dds::SampleInfo info;
+      const auto deadline = std::chrono::steady_clock::now() + timeout;
+      bool got = false;
+      while (!got && std::chrono::steady_clock::now() < deadline) {
+        got = reader->take_next_sample(&p, &info) == ReturnCode_t::RETCODE_OK && info.valid_data;
+        if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      if (!got)
+        throw std::runtime_error("no robot progress from a densemap-server on DDS domain " +
+                                 std::to_string(dds.domain) + " within " + std::to_string(timeout_s) + " s");
+      json robots = json::array();
+      for (const auto& r : p.robots()) {
+        json iv = json::array();
+        for (std::size_t i = 0; i + 1 < r.intervals().size(); i += 2)
+          iv.push_back({r.intervals()[i], r.intervals()[i + 1]});
+        robots.push_back({{"robot", r.robot_id()},
+                          {"durable_scans", r.durable_scans()},
+                          {"last_durable_sequence", r.last_durable_sequence()},
+                          {"intervals", iv},
+                          {"applied_order", [&] {
+                             json o = json::array();
+                             for (std::size_t i = 0; i + 1 < r.applied_order().size(); i += 2)
+                               o.push_back({r.applied_order()[i], r.applied_order()[i + 1]});
+                             return o;
+                           }()}});
+      }
+      const json out = {{"server_id", p.server_id()}, {"journal", p.journal()}, {"robots", robots}};
+      if (as_json) {
+        std::printf("%s\n", out.dump().c_str());
+      } else {
+        std::printf("server %s (journal %s)\n", p.server_id().c_str(), p.journal() ? "on" : "off");
+        for (const auto& r : robots)
+          std::printf("  %s: %llu durable scans, up to %llu; runs %s\n",
+                      r["robot"].get<std::string>().c_str(),
+                      static_cast<unsigned long long>(r["durable_scans"].get<std::uint64_t>()),
+                      static_cast<unsigned long long>(r["last_durable_sequence"].get<std::uint64_t>()),
+                      r["intervals"].dump().c_str());
+      }
+      return 0;
+    }
     if (*server_stats) {
       // Statistics are published, not asked for: no request-reply, so it also works while queries queue.
       client::StatisticsSubscriber sub(node);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -22,6 +23,7 @@
 #include "densemap/client/query_client.h"
 #include "densemap/client/ros2_player.h"
 #include "densemap/client/scan_publisher.h"
+#include "densemap/client/scan_resender.h"
 #include "densemap/densify/range_image.h"
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/ros2/bag_reader.h"
@@ -139,6 +141,11 @@ int main(int argc, char** argv) {
   app.add_option("--scan-log", scan_log_path,
                  "append one JSON line per scan sent, refused by DDS and acknowledged, as it happens (kept "
                  "when the process is killed; the cross-host test reads it)");
+  bool resume = true;
+  app.add_flag("--resume,!--no-resume", resume,
+               "go on numbering after the scans the server has on disk already (its robot progress), and "
+               "resend what it lost when it restarts")
+      ->capture_default_str();
   bool ros2_mode = false;
   app.add_flag(
       "--ros2", ros2_mode,
@@ -234,6 +241,7 @@ int main(int argc, char** argv) {
                         {"robot", a.robot_id()},
                         {"seq", a.seq()},
                         {"outcome", client::toString(a.outcome())},
+                        {"durable", a.durable()},
                         {"publish_ns", a.publish_ns()},
                         {"done_ns", a.done_ns()}});
       });
@@ -339,18 +347,15 @@ int main(int argc, char** argv) {
     cli::Progress progress("publishing", total);
     const auto t_start = Clock::now();
     std::vector<std::thread> robot_threads;
+    std::mutex resend_mutex;
+    client::ResendCounts resends;
     for (int k = 0; k < robots; ++k) {
       robot_threads.emplace_back([&, k] {
         const int index = first_robot + k;  // robot index: its id and its offset
         const std::string id = prefix + "-" + std::to_string(index);
         const auto start = t_start + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(period_s * k / std::max(1, robots)));
-        for (std::size_t n = 0; n < per_robot; ++n) {
-          if (period_s > 0) {
-            std::this_thread::sleep_until(
-                start + std::chrono::duration_cast<Clock::duration>(
-                            std::chrono::duration<double>(period_s * static_cast<double>(n))));
-          }
+        auto scan_of = [&, index](std::uint64_t n) {
           io::Scan scan = data[n % data.size()];
           if (index > 0) {
             scan.pose.pretranslate(offset * index);
@@ -358,12 +363,28 @@ int main(int argc, char** argv) {
               for (auto& p : scan.points) p += (offset * index).cast<float>();
             }
           }
+          return scan;
+        };
+        client::ScanResender resender(publisher, id, scan_of);
+        // The server says which of this robot's scans it has on disk already: a robot that restarts goes on
+        // numbering after them (and sends its per-robot count from there), instead of repeating them.
+        const std::uint64_t first =
+            resume ? resender.resumeFrom(0, std::numeric_limits<std::uint64_t>::max() / 2,
+                                         std::chrono::milliseconds(1000))
+                   : 0;
+        for (std::uint64_t n = first; n < first + per_robot; ++n) {
+          if (period_s > 0) {
+            std::this_thread::sleep_until(
+                start + std::chrono::duration_cast<Clock::duration>(
+                            std::chrono::duration<double>(period_s * static_cast<double>(n - first))));
+          }
           if (k == 0) {
-            const Eigen::Vector3d t = scan.pose.translation();
+            const Eigen::Vector3d t = scan_of(n).pose.translation();
             for (int a = 0; a < 3; ++a) robot0[static_cast<std::size_t>(a)] = static_cast<float>(t[a]);
           }
           const std::int64_t t_ns = msg::nowNs();
-          const bool ok = publisher.publish(id, n, scan);
+          // Refused by DDS (a server gone, its lease not over yet): retried, with resends after a restart.
+          const bool ok = resender.send(n, Clock::now() + wait);
           if (ok) {
             progress.step(++sent);
           } else {
@@ -373,12 +394,20 @@ int main(int argc, char** argv) {
             scan_log.write({{"event", ok ? "sent" : "refused"}, {"robot", id}, {"seq", n}, {"t_ns", t_ns}});
           }
         }
+        if (!resender.settle(Clock::now() + wait)) {
+          spdlog::error("{}: {} scans not acknowledged within {} s", id, resender.outstanding(), wait_s);
+        }
+        std::lock_guard lock(resend_mutex);
+        resends.restarts_seen = std::max(resends.restarts_seen, resender.counts().restarts_seen);
+        resends.resent += resender.counts().resent;
+        resends.held += resender.counts().held;
+        resends.skipped += resender.counts().skipped;
       });
     }
     for (auto& t : robot_threads) t.join();
     if (robots == 0) std::this_thread::sleep_for(std::chrono::duration<double>(duration_s));
     const double publish_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-    const client::AckCounts acks = publisher.waitForAcks(ids, sent, wait);
+    const client::AckCounts acks = publisher.waitForAcks(ids, sent, std::chrono::milliseconds(1000));
     replaying = false;
     for (auto& t : query_threads) t.join();
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
@@ -404,6 +433,12 @@ int main(int argc, char** argv) {
                         {"acks_applied", acks.applied},
                         {"acks_dropped", acks.dropped},
                         {"acks_rejected", acks.rejected},
+                        {"acks_duplicate", acks.duplicate},
+                        {"acks_durable", acks.durable},
+                        {"server_restarts_seen", resends.restarts_seen},
+                        {"scans_resent", resends.resent},
+                        {"scans_held_unacknowledged", resends.held},
+                        {"resumed_after_durable", resends.skipped},
                         {"latency_p50_ms", percentile(lat, 0.5)},
                         {"latency_p99_ms", percentile(lat, 0.99)},
                         {"latency_max_ms", percentile(lat, 1.0)},
@@ -456,7 +491,15 @@ int main(int argc, char** argv) {
       if (!f) throw std::runtime_error("cannot write " + summary_json);
       f << j.dump(2) << "\n";
     }
-    if (acks.total() < sent) {
+    if (resends.restarts_seen > 0 || resends.skipped > 0) {
+      std::printf(
+          "the server restarted %llu time(s): %llu scans sent again, %llu found on its disk unacknowledged; "
+          "numbering went on after %llu scans on its disk already\n",
+          static_cast<unsigned long long>(resends.restarts_seen),
+          static_cast<unsigned long long>(resends.resent), static_cast<unsigned long long>(resends.held),
+          static_cast<unsigned long long>(resends.skipped));
+    }
+    if (acks.total() + resends.held < sent) {
       spdlog::error("{} scans were not acknowledged within {} s", sent - acks.total(), wait_s);
       return 3;
     }

@@ -14,7 +14,13 @@ namespace dds = eprosima::fastdds::dds;
 class ScanPublisher::Listener : public dds::DataReaderListener {
  public:
   explicit Listener(ScanPublisher& p) : p_(p) {}
-  void on_data_available(dds::DataReader* r) override { p_.onAcks(r); }
+  void on_data_available(dds::DataReader* r) override {
+    if (r == p_.progress_reader_) {
+      p_.onProgress(r);
+    } else {
+      p_.onAcks(r);
+    }
+  }
 
  private:
   ScanPublisher& p_;
@@ -25,12 +31,60 @@ ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node), statistics_(node
   auto* scans = node_.topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
   auto* acks = node_.topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
   writer_ = node_.writer(scans, msg::kScanWriterProfile);
+  auto* progress = node_.topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
+  progress_reader_ = node_.reader(progress, msg::progressReaderQos(), nullptr);
+  progress_reader_->set_listener(listener_.get());
+  onProgress(progress_reader_);  // a sample that came before the listener
   ack_reader_ = node_.reader(acks, msg::kMessageReaderProfile, listener_.get());
+}
+
+void ScanPublisher::onProgress(dds::DataReader* reader) {
+  msg::RobotProgress p;
+  dds::SampleInfo info;
+  std::lock_guard lock(mutex_);
+  while (reader->take_next_sample(&p, &info) == ReturnCode_t::RETCODE_OK) {
+    if (info.valid_data) progress_ = p;
+  }
+  changed_.notify_all();
+}
+
+std::optional<msg::RobotProgress> ScanPublisher::progress() const {
+  std::lock_guard lock(mutex_);
+  return progress_;
+}
+
+std::optional<msg::RobotProgress> ScanPublisher::waitForProgress(
+    std::chrono::milliseconds timeout, std::optional<std::uint64_t> not_incarnation) {
+  std::unique_lock lock(mutex_);
+  changed_.wait_for(lock, timeout, [&] {
+    return progress_ && (!not_incarnation || progress_->incarnation() != *not_incarnation);
+  });
+  if (progress_ && (!not_incarnation || progress_->incarnation() != *not_incarnation)) return progress_;
+  return std::nullopt;
+}
+
+bool heldDurably(const msg::RobotProgress& p, const std::string& robot_id, std::uint64_t seq) {
+  if (!p.journal()) return false;
+  for (const auto& r : p.robots()) {
+    if (r.robot_id() != robot_id) continue;
+    const auto& iv = r.intervals();
+    for (std::size_t i = 0; i + 1 < iv.size(); i += 2)
+      if (iv[i] <= seq && seq <= iv[i + 1]) return true;
+  }
+  return false;
+}
+
+std::optional<std::uint64_t> lastDurableSeq(const msg::RobotProgress& p, const std::string& robot_id) {
+  for (const auto& r : p.robots()) {
+    if (r.robot_id() == robot_id && r.durable_scans() > 0) return r.last_durable_sequence();
+  }
+  return std::nullopt;
 }
 
 ScanPublisher::~ScanPublisher() {
   // Stop callbacks before the listener goes away.
   node_.remove(ack_reader_);
+  node_.remove(progress_reader_);
   node_.remove(writer_);
 }
 
@@ -103,7 +157,9 @@ void ScanPublisher::onAcks(dds::DataReader* reader) {
   std::lock_guard lock(mutex_);
   while (reader->take_next_sample(&a, &info) == ReturnCode_t::RETCODE_OK) {
     if (!info.valid_data) continue;
-    acks_[{a.robot_id(), a.seq()}] = a;
+    // A resend's acknowledgement (a duplicate) does not replace the first one, unless that was not durable.
+    auto [it, fresh] = acks_.try_emplace({a.robot_id(), a.seq()}, a);
+    if (!fresh && !it->second.durable() && a.durable()) it->second = a;
     if (ack_observer_) ack_observer_(a);
   }
   changed_.notify_all();
@@ -122,6 +178,8 @@ AckCounts ScanPublisher::acks(const std::set<std::string>& robots) const {
     if (a.outcome() == msg::SCAN_APPLIED) ++c.applied;
     if (a.outcome() == msg::SCAN_REJECTED) ++c.rejected;
     if (a.outcome() == msg::SCAN_DROPPED) ++c.dropped;
+    if (a.outcome() == msg::SCAN_DUPLICATE) ++c.duplicate;
+    if (a.durable()) ++c.durable;
   }
   return c;
 }

@@ -192,4 +192,26 @@ dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const dds::DataRe
   return r;
 }
 
+eprosima::fastdds::dds::DataWriterQos progressWriterQos() {
+  namespace fdds = eprosima::fastdds::dds;
+  fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
+  q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  q.history().depth = 1;
+  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  return q;
+}
+
+eprosima::fastdds::dds::DataReaderQos progressReaderQos() {
+  namespace fdds = eprosima::fastdds::dds;
+  fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
+  q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  q.history().depth = 1;
+  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  return q;
+}
+
 }  // namespace densemap::msg

@@ -7,6 +7,10 @@ namespace densemap::server {
 StageResult DenseStage::process(ScanJob& job) {
   if (!niced_ && nice_ > 0) setThreadsNice(openmpTeamThreadIds(), nice_);
   niced_ = true;
+  return replay(job);
+}
+
+StageResult DenseStage::replay(ScanJob& job) {
   // The occupancy stage before this one left the points in the world frame.
   std::vector<geometry::Vec3f> converted;
   if (job.scan.frame != io::PointFrame::kWorld) converted = job.scan.worldPoints();
@@ -22,6 +26,9 @@ void DenseStage::applyChange(MapChange& change) {
       std::holds_alternative<LoadCommand>(change.command)) {
     if (change.result.status == Status::kOk) store_.write([](dense::KernelLayer& layer) { layer.clear(); });
   }
+  // The writer reads its own layer without the lock: queries go on while the state is copied.
+  if (std::holds_alternative<SnapshotCommand>(change.command) && change.result.status == Status::kOk)
+    change.dense_state = store_.writerView().saveState();
 }
 
 }  // namespace densemap::server

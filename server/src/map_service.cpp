@@ -37,18 +37,183 @@ MapService::MapService(ServiceOptions options)
   std::vector<std::unique_ptr<PipelineStage>> stages;
   if (options_.densify.method != "none")
     stages.push_back(std::make_unique<DensifyStage>(options_.densify, makeUpsampler(options_.densify)));
-  stages.push_back(std::make_unique<OccupancyStage>(
+  auto occupancy = std::make_unique<OccupancyStage>(
       *store_, options_.update,
-      resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice)));
+      resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice));
+  std::unique_ptr<DenseStage> dense;
   if (auto layer = dense::makeDenseLayer(options_.dense, options_.map.resolution)) {
     dense_store_ = std::make_unique<DenseStore>(std::move(layer));
-    stages.push_back(std::make_unique<DenseStage>(*dense_store_, options_.dense_nice));
+    dense = std::make_unique<DenseStage>(*dense_store_, options_.dense_nice, options_.dense_overflow);
   }
+  if (options_.durability.journal) {
+    auto journal = recoverInto(*occupancy, dense.get());
+    journal_ = journal.get();
+    stages.push_back(std::move(journal));
+  }
+  stages.push_back(std::move(occupancy));
+  if (dense) stages.push_back(std::move(dense));
   answerer_ = std::make_unique<QueryAnswerer>(*store_, options_.queries, dense_store_.get());
   pipeline_ = std::make_unique<Pipeline>(options_.pipeline, std::move(stages));
+  if (journal_ != nullptr) {
+    last_snapshot_ = std::chrono::steady_clock::now();
+    snapshot_thread_ = std::thread([this] { snapshotLoop(); });
+  }
+}
+
+std::unique_ptr<durability::JournalStage> MapService::recoverInto(OccupancyStage& occupancy,
+                                                                  DenseStage* dense) {
+  namespace du = durability;
+  // A record is at most a scan of max_points (or a loaded map file) plus its fields.
+  const std::uint64_t max_record =
+      std::max<std::uint64_t>(options_.limits.max_points * sizeof(geometry::Vec3f),
+                              options_.max_map_file_bytes) +
+      (1 << 20);
+  data_dir_ = std::make_unique<du::DataDirectory>(
+      options_.data_dir, du::mapFingerprint(options_.map, options_.update, options_.dense),
+      options_.durability, max_record);
+  du::RobotProgress progress;
+  auto load = [&](const du::SnapshotContents& s) {
+    store_->replace(map::decodeMap(s.map, options_.map));
+    if (dense_store_) {
+      if (s.dense.empty()) throw std::runtime_error("the snapshot has no dense layer");
+      dense_store_->write([&](dense::KernelLayer& layer) { layer.restoreState(s.dense); });
+    }
+    progress = du::RobotProgress::decode(s.progress);
+  };
+  std::uint64_t scans = 0, commands = 0;
+  auto replay = [&](const du::RecordView& r, std::string payload) {
+    const std::size_t base = r.offset + du::kRecordHeaderBytes;
+    if (r.kind == du::RecordKind::kScan) {
+      ScanJob job = du::decodeScanRecord(payload, base);
+      progress.record(job.robot_id, job.seq);
+      if (StageResult res = occupancy.replay(job); !res.ok) throw std::runtime_error(res.error);
+      if (dense != nullptr) dense->replay(job);
+      ++scans;
+      return;
+    }
+    du::DecodedCommand d = du::decodeCommandRecord(r.kind, payload, base);
+    MapChange change(d.command);
+    if (std::holds_alternative<LoadCommand>(d.command))
+      change.loaded = map::decodeMap(d.loaded_file, options_.map);
+    occupancy.applyChange(change);
+    if (dense != nullptr) dense->applyChange(change);
+    if (change.result.status != Status::kOk) throw std::runtime_error(change.result.message);
+    ++commands;
+  };
+  recovery_ = data_dir_->recover(load, replay);
+  const auto& rep = *recovery_;
+  spdlog::info(
+      "{}: recovered {} from {}: {}, then {} journal records ({} scans, {} commands) in {:.2f} s; {} robots "
+      "known",
+      options_.server_id,
+      store_->read([](const map::OccupancyMap& m, std::uint64_t) { return m.knownCells(); }),
+      options_.data_dir, rep.snapshot_lsn ? "snapshot " + rep.snapshot_file : std::string("no snapshot"),
+      rep.records_replayed, scans, commands, rep.seconds, progress.robots());
+  return std::make_unique<du::JournalStage>(data_dir_->openWriter(), std::move(progress),
+                                            options_.durability.journal_sync_ms, rep.records_replayed);
+}
+
+std::optional<std::uint64_t> MapService::lastDurableSeq(const std::string& robot_id) const {
+  if (journal_ == nullptr) return std::nullopt;
+  return journal_->lastDurableSeq(robot_id);
+}
+
+durability::RobotProgress MapService::durableProgress() const {
+  return journal_ == nullptr ? durability::RobotProgress{} : journal_->durableProgress();
+}
+
+void MapService::snapshotLoop() {
+  pthread_setname_np(pthread_self(), "dm-snapshot");
+  const auto& d = options_.durability;
+  std::unique_lock lock(snapshot_loop_mutex_);
+  while (!snapshot_loop_stop_) {
+    snapshot_loop_wake_.wait_for(lock, std::chrono::milliseconds(100));
+    if (snapshot_loop_stop_) break;
+    const std::uint64_t pending = journal_->scansSinceSnapshot();
+    const double since =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_snapshot_).count();
+    const bool by_count = d.snapshot_every_scans > 0 && pending >= d.snapshot_every_scans;
+    const bool by_time = d.snapshot_every_s > 0 && pending > 0 && since >= d.snapshot_every_s;
+    if (!by_count && !by_time) continue;
+    lock.unlock();
+    const CommandResult r = snapshot();
+    if (r.status != Status::kOk) spdlog::error("snapshot failed: {}", r.message);
+    lock.lock();
+  }
+}
+
+CommandResult MapService::snapshot() {
+  CommandResult r;
+  if (journal_ == nullptr) {
+    r.status = Status::kInvalidArgument;
+    r.message = "snapshots need the journal (--journal true)";
+    return r;
+  }
+  std::lock_guard one(snapshot_mutex_);
+  const auto t0 = std::chrono::steady_clock::now();
+  last_snapshot_ = t0;
+  auto change = std::make_shared<MapChange>(SnapshotCommand{});
+  r = runChange(change);
+  if (r.status != Status::kOk) return r;
+  snapshot_ms_.add(change->snapshot_ms);
+  durability::SnapshotContents s;
+  s.lsn = change->snapshot_lsn;
+  s.created_ns = util::wallClockNs();
+  s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
+  s.progress = std::move(change->snapshot_progress);
+  s.map = map::encodeMap(*change->snapshot, map::OctomapFormat::kFull);
+  s.dense = std::move(change->dense_state);
+  try {
+    last_snapshot_bytes_ = data_dir_->writeSnapshot(s);
+  } catch (const std::exception& e) {
+    ++snapshot_failures_;
+    r.status = Status::kFailed;
+    r.message = e.what();
+    return r;
+  }
+  last_snapshot_lsn_ = s.lsn;
+  ++snapshots_written_;
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  snapshot_write_ms_.add(ms);
+  r.message = fmt::format(
+      "snapshot at record {} ({} cells, {:.1f} MB) in {:.0f} ms; the copy held the update {:.1f} ms", s.lsn,
+      change->snapshot->knownCells(), static_cast<double>(last_snapshot_bytes_) / 1e6, ms,
+      change->snapshot_ms);
+  spdlog::info("{}", r.message);
+  return r;
 }
 
 MapService::~MapService() { stop(); }
+
+void MapService::snapshotOnExit() {
+  // The pipeline's threads are gone: the layers and the journal are read directly.
+  const durability::JournalCounters j = journal_->counters();
+  if (j.failed) {
+    spdlog::error("no snapshot on exit: the journal failed ({}); a restart rebuilds the map from the disk",
+                  j.last_error);
+    return;
+  }
+  if (j.last_lsn == last_snapshot_lsn_ && snapshots_written_ > 0) return;
+  try {
+    const auto t0 = std::chrono::steady_clock::now();
+    durability::SnapshotContents s;
+    s.lsn = j.last_lsn;
+    s.created_ns = util::wallClockNs();
+    s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
+    s.progress = journal_->durableProgress().encode();
+    s.map = store_->read([](const map::OccupancyMap& m, std::uint64_t) {
+      return map::encodeMap(m, map::OctomapFormat::kFull);
+    });
+    if (dense_store_)
+      s.dense = dense_store_->read([](const dense::KernelLayer& l, std::uint64_t) { return l.saveState(); });
+    const std::uint64_t bytes = data_dir_->writeSnapshot(s);
+    spdlog::info("snapshot on exit at record {} ({:.1f} MB, {:.0f} ms)", s.lsn,
+                 static_cast<double>(bytes) / 1e6,
+                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  } catch (const std::exception& e) {
+    spdlog::error("no snapshot on exit: {}; a restart replays the journal instead", e.what());
+  }
+}
 
 SubmitResult MapService::submit(ScanJob job, OutcomeCallback on_outcome) {
   if (job.received_ns == 0) job.received_ns = util::wallClockNs();
@@ -107,7 +272,7 @@ CommandResult MapService::save(const SaveCommand& c) {
 CommandResult MapService::load(const LoadCommand& c) {
   if (const std::string why = MapDirectory::checkName(c.name); !why.empty())
     throw RequestError(Status::kInvalidArgument, why);
-  const std::string bytes = map_dir_->read(c.name, options_.max_map_file_bytes);
+  std::string bytes = map_dir_->read(c.name, options_.max_map_file_bytes);
   auto change = std::make_shared<MapChange>(c);
   try {
     change->loaded = map::decodeMap(bytes, options_.map);
@@ -115,6 +280,7 @@ CommandResult MapService::load(const LoadCommand& c) {
     throw RequestError(Status::kInvalidArgument, c.name + ": " + e.what());
   }
   MapSummary summary = mapSummary(*change->loaded, 0);
+  if (journal_ != nullptr) change->loaded_file = std::move(bytes);  // the journal keeps the file
   CommandResult r = runChange(change);
   if (r.status != Status::kOk) return r;
   summary.map_version = r.map_version;
@@ -131,6 +297,8 @@ CommandResult MapService::execute(const Command& command, const std::string& req
       r = save(*s);
     } else if (const auto* l = std::get_if<LoadCommand>(&command)) {
       r = load(*l);
+    } else if (std::holds_alternative<SnapshotCommand>(command)) {
+      r = snapshot();
     } else {
       if (const auto* b = std::get_if<ClearBoxCommand>(&command))
         boxKeys(geometry::KeyConverter(options_.map.resolution), b->min, b->max);  // a clear error now
@@ -153,7 +321,38 @@ ServiceStatistics MapService::statistics() const {
   s.server_id = options_.server_id;
   s.stamp_ns = util::wallClockNs();
   s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
-  for (auto& [id, c] : pipeline_->robotCounters()) s.robots.emplace_back(id, c);
+  auto robots = pipeline_->robotCounters();
+  if (journal_ != nullptr) {
+    journal_->durableProgress().forEachRobot(
+        [&](const std::string& id, std::uint64_t count, std::uint64_t records, std::uint64_t last) {
+          RobotCounters& c = robots[id];  // robots known from earlier runs are listed too
+          c.durable_scans = count;
+          c.journaled_scans = records;
+          c.last_durable_seq = last;
+        });
+    auto& d = s.durability;
+    const durability::JournalCounters j = journal_->counters();
+    d.enabled = true;
+    d.records = j.records;
+    d.bytes = j.bytes;
+    d.syncs = j.syncs;
+    d.duplicates = j.duplicates;
+    d.failures = j.failures;
+    d.failed = j.failed;
+    d.last_error = j.last_error;
+    d.last_lsn = j.last_lsn;
+    d.sync_ms = j.sync_ms;
+    d.snapshots = snapshots_written_;
+    d.snapshot_failures = snapshot_failures_;
+    d.snapshot_lsn = last_snapshot_lsn_;
+    d.snapshot_bytes = last_snapshot_bytes_;
+    d.snapshot_ms = snapshot_write_ms_.summary();
+    if (recovery_) {
+      d.recovered_records = recovery_->records_replayed;
+      d.recovery_s = recovery_->seconds;
+    }
+  }
+  for (auto& [id, c] : robots) s.robots.emplace_back(id, c);
   s.stages = pipeline_->stageCounters();
   auto pseudoStage = [&](const char* name, std::uint64_t processed, const LatencySummary& l) {
     StageCounters st;
@@ -191,7 +390,16 @@ void MapService::stop(bool drain) {
   stopped_ = true;
   spdlog::info("{}: stopping ({} queued scans {})", options_.server_id, pipeline_->inFlight(),
                drain ? "to finish" : "to drop");
+  if (snapshot_thread_.joinable()) {
+    {
+      std::lock_guard lock(snapshot_loop_mutex_);
+      snapshot_loop_stop_ = true;
+    }
+    snapshot_loop_wake_.notify_all();
+    snapshot_thread_.join();
+  }
   pipeline_->stop(drain);
+  if (journal_ != nullptr && options_.durability.snapshot_on_exit) snapshotOnExit();
   if (!options_.save_on_exit.empty()) {
     try {
       store_->read([&](const map::OccupancyMap& m, std::uint64_t) {

@@ -9,6 +9,17 @@
 namespace densemap::server {
 
 StageResult OccupancyStage::process(ScanJob& job) {
+  // Late once it has been in the server for the catch-up time (received_ns is system-clock time).
+  const auto late_at = std::chrono::steady_clock::now() +
+                       std::chrono::nanoseconds(job.received_ns - util::wallClockNs()) + priority_.catchUp();
+  StageResult result;
+  priority_.run(late_at, [&] { result = apply(job); });
+  return result;
+}
+
+StageResult OccupancyStage::replay(ScanJob& job) { return apply(job); }
+
+StageResult OccupancyStage::apply(ScanJob& job) {
   // Later stages (the dense layer) take the scan in the world frame: transform it once, here.
   if (job.scan.frame != io::PointFrame::kWorld) {
     job.scan.points = job.scan.worldPoints();
@@ -16,17 +27,11 @@ StageResult OccupancyStage::process(ScanJob& job) {
   }
   const std::vector<geometry::Vec3f>& world = job.scan.points;
   std::uint64_t version = 0;
-  // Late once it has been in the server for the catch-up time (received_ns is system-clock time).
-  const auto late_at = std::chrono::steady_clock::now() +
-                       std::chrono::nanoseconds(job.received_ns - util::wallClockNs()) + priority_.catchUp();
-  std::optional<update::UpdateStats> stats;
-  priority_.run(late_at, [&] {
-    stats = engine_.insert(store_.writerView(), world, job.scan.origin(),
-                           [&](const std::function<void()>& apply) {
-                             store_.write([&](map::OccupancyMap&) { apply(); });
-                             version = store_.version();
-                           });
-  });
+  const std::optional<update::UpdateStats> stats = engine_.insert(
+      store_.writerView(), world, job.scan.origin(), [&](const std::function<void()>& publish) {
+        store_.write([&](map::OccupancyMap&) { publish(); });
+        version = store_.version();
+      });
   if (!stats) {  // validateScan checks the origin first; kept so a missed case is a rejection, not a crash
     return StageResult::reject("the sensor origin lies outside the map's key range");
   }
@@ -38,6 +43,7 @@ StageResult OccupancyStage::process(ScanJob& job) {
 
 void OccupancyStage::applyChange(MapChange& change) {
   CommandResult& r = change.result;
+  if (r.status != Status::kOk) return;  // refused before (the journal could not take it): not applied
   reportingErrors(r, [&] {
     if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
       const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
@@ -52,7 +58,8 @@ void OccupancyStage::applyChange(MapChange& change) {
     } else if (std::holds_alternative<LoadCommand>(change.command)) {
       r.cells_changed = change.loaded->knownCells();
       store_.replace(std::move(change.loaded));
-    } else if (std::holds_alternative<SaveCommand>(change.command)) {
+    } else if (std::holds_alternative<SaveCommand>(change.command) ||
+               std::holds_alternative<SnapshotCommand>(change.command)) {
       // The writer is the map's only writer, so it copies without the lock: readers go on meanwhile and
       // only the update waits for the copy (measured: snapshot_ms).
       const auto t0 = std::chrono::steady_clock::now();

@@ -112,38 +112,99 @@ std::optional<ScanJob> Pipeline::nextRoundRobin() {
   return std::nullopt;
 }
 
-void Pipeline::runStage(std::size_t index) {
+std::optional<ScanJob> Pipeline::next(std::size_t index, std::chrono::microseconds timeout, bool& finished) {
+  if (index > 0) {
+    Stage& stage = *stages_[index];
+    std::optional<ScanJob> job = stage.input.pop(timeout);
+    if (!job && stage.input.closedAndEmpty()) finished = true;
+    return job;
+  }
+  if (auto job = nextRoundRobin()) return job;
+  if (!accepting_) {  // stop(): every robot queue has been emptied
+    finished = true;
+    return std::nullopt;
+  }
+  std::unique_lock lock(arrival_mutex_);
+  arrival_.wait_for(lock, timeout);
+  return std::nullopt;
+}
+
+void Pipeline::pass(std::size_t index, ScanJob&& job, const StageResult& result) {
   Stage& stage = *stages_[index];
   Stage* next = index + 1 < stages_.size() ? stages_[index + 1].get() : nullptr;
+  if (job.change) {
+    if (next != nullptr) {
+      next->input.push(std::move(job));  // never dropped (the queue keeps commands)
+    } else {
+      job.change->done.set_value();
+    }
+    return;
+  }
+  if (!result.ok) {
+    finish(job, result.duplicate ? ScanOutcome::kDuplicate : ScanOutcome::kRejected, result.error);
+    return;
+  }
+  if (stage.impl->commitsToMap()) {
+    publish_to_map_.add(static_cast<double>(job.in_map_ns - job.publish_ns) * 1e-6);
+    finish(job, ScanOutcome::kInMap, {});
+  }
+  if (next != nullptr) {
+    // Stages after the map commit see a copy only if they need it; the outcome was already reported.
+    std::optional<ScanJob> dropped = next->input.push(std::move(job));
+    if (dropped) {
+      ++next->dropped;
+      spdlog::debug("stage {}: dropped scan {}#{} (falling behind)", next->impl->name(), dropped->robot_id,
+                    dropped->seq);
+    }
+  }
+}
+
+void Pipeline::runStage(std::size_t index) {
+  Stage& stage = *stages_[index];
+  Stage* next_stage = index + 1 < stages_.size() ? stages_[index + 1].get() : nullptr;
   // Named so profiles and load-test reports attribute CPU per stage (Linux allows 15 characters).
   pthread_setname_np(pthread_self(), ("dm-" + stage.impl->name()).substr(0, 15).c_str());
   // Bulk work: normal scheduling and the kernel's default slice (the server asks real-time priority and a
   // short slice for its latency-bound threads only).
   util::useBulkScheduling();
-  for (;;) {
-    std::optional<ScanJob> job;
-    if (index == 0) {
-      job = nextRoundRobin();
-      if (!job) {
-        if (!accepting_) break;  // stop(): every robot queue has been emptied
-        std::unique_lock lock(arrival_mutex_);
-        arrival_.wait_for(lock, 10ms);
-        continue;
+  const std::optional<std::chrono::microseconds> window = stage.impl->groupWindow();
+  constexpr std::size_t kMaxGroup = 64;  // bounds the memory a group holds (scans wait in it)
+  bool finished = false;
+  while (!finished) {
+    std::optional<ScanJob> job = next(index, 10ms, finished);
+    if (!job) continue;
+    if (window) {
+      // A group: every job that arrives within the window after the first, handled in one call (the
+      // journal's group commit: one fsync for all of them).
+      std::vector<ScanJob> group;
+      group.push_back(std::move(*job));
+      const auto deadline = std::chrono::steady_clock::now() + *window;
+      bool input_done = false;
+      while (group.size() < kMaxGroup && !input_done) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now >= deadline) break;
+        auto more =
+            next(index, std::chrono::duration_cast<std::chrono::microseconds>(deadline - now), input_done);
+        if (more) group.push_back(std::move(*more));
       }
-    } else {
-      job = stage.input.pop(10ms);
-      if (!job) {
-        if (stage.input.closedAndEmpty()) break;
-        continue;
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<StageResult> results;
+      stage.impl->processGroup(group, results);
+      const double ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      for (std::size_t i = 0; i < group.size(); ++i) {
+        if (!group[i].change) {
+          stage.latency.add(ms);
+          ++stage.processed;
+        }
+        pass(index, std::move(group[i]), i < results.size() ? results[i] : StageResult{});
       }
+      finished = input_done;
+      continue;
     }
     if (job->change) {
       stage.impl->applyChange(*job->change);
-      if (next != nullptr) {
-        next->input.push(std::move(*job));  // never dropped (the queue keeps commands)
-      } else {
-        job->change->done.set_value();
-      }
+      pass(index, std::move(*job), {});
       continue;
     }
     const auto t0 = std::chrono::steady_clock::now();
@@ -151,26 +212,10 @@ void Pipeline::runStage(std::size_t index) {
     stage.latency.add(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     ++stage.processed;
-    if (!result.ok) {
-      finish(*job, ScanOutcome::kRejected, result.error);
-      continue;
-    }
-    if (stage.impl->commitsToMap()) {
-      publish_to_map_.add(static_cast<double>(job->in_map_ns - job->publish_ns) * 1e-6);
-      finish(*job, ScanOutcome::kInMap, {});
-    }
-    if (next != nullptr) {
-      // Stages after the map commit see a copy only if they need it; the outcome was already reported.
-      std::optional<ScanJob> dropped = next->input.push(std::move(*job));
-      if (dropped) {
-        ++next->dropped;
-        spdlog::debug("stage {}: dropped scan {}#{} (falling behind)", next->impl->name(), dropped->robot_id,
-                      dropped->seq);
-      }
-    }
+    pass(index, std::move(*job), result);
   }
   // Drain or drop is decided by stop(); here the stage's input is finished: close the next one.
-  if (next != nullptr) next->input.close();
+  if (next_stage != nullptr) next_stage->input.close();
   --stages_running_;
 }
 
@@ -184,9 +229,12 @@ void Pipeline::finish(const ScanJob& job, ScanOutcome outcome, const std::string
       if (outcome == ScanOutcome::kInMap) ++c.processed;
       if (outcome == ScanOutcome::kRejected) ++c.rejected;
       if (outcome == ScanOutcome::kDropped) ++c.dropped;
+      if (outcome == ScanOutcome::kDuplicate) ++c.duplicates;
     }
   }
-  if (outcome != ScanOutcome::kInMap) {
+  if (outcome == ScanOutcome::kDuplicate) {
+    spdlog::info("scan {}#{}: {}", job.robot_id, job.seq, why);
+  } else if (outcome != ScanOutcome::kInMap) {
     spdlog::warn("scan {}#{} {}: {}", job.robot_id, job.seq,
                  outcome == ScanOutcome::kDropped ? "dropped" : "rejected", why);
   }

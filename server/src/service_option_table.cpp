@@ -37,6 +37,11 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         .range(0.0, 100.0);
     t.add("dense-max-range", o.dense.max_range, "cut rays here for the dense layer (metres; < 0: unlimited)")
         .range(-1.0, 1e5);
+    t.addChoice(
+        "dense-overflow", o.dense_overflow,
+        {{"drop_oldest", OverflowPolicy::kDropOldest}, {"wait", OverflowPolicy::kWait}},
+        "when it falls behind: drop_oldest (the exact map never waits) or wait (it takes every scan, so "
+        "its layer is that of every acknowledged scan, also after a restart)");
     t.add("dense-nice", o.dense_nice, "nice value of its threads: it drops scans rather than fall behind")
         .range(0, 19);
     t.add("dense-isotropic-free", o.dense.isotropic_free_kernels,
@@ -74,6 +79,31 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
     t.add("data-dir", o.data_dir, "the service's data directory");
     t.add("map-dir", o.map_dir, "where saves and loads go (empty: DATA_DIR/maps)");
     t.add("max-map-file-bytes", o.max_map_file_bytes, "largest map file a load reads").range(1, 1e12);
+  }
+  {
+    auto& d = o.durability;
+    cli::OptionTable& t = tables.emplace_back(
+        "Durability: the journal and snapshots in DATA_DIR; an acknowledged scan survives a crash, kill -9 "
+        "or power cut (docs/DURABILITY.md)");
+    t.add("journal", d.journal,
+          "journal every scan and map command before acknowledging it (false: a crash loses the map)");
+    t.add("journal-sync-ms", d.journal_sync_ms,
+          "group commit: one fsync for the records of this many ms (each waits up to that long for its ack; "
+          "0: one fsync per record, slower on slow disks)")
+        .range(0, 1000);
+    t.add("journal-zstd", d.journal_zstd_level, "zstd level of journal records (0: uncompressed)")
+        .range(0, 19);
+    t.add("journal-segment-mib", d.journal_segment_mib, "start a new journal file after this many MiB")
+        .range(1, 65536);
+    t.add("journal-recover", d.journal_recover,
+          "damage in the middle of the journal: refuse to start, or cut it there (loses what follows)")
+        .oneOf({"refuse", "cut"});
+    t.add("snapshot-every-scans", d.snapshot_every_scans,
+          "snapshot after this many journaled scans (0: not by count); the journal behind it is removed")
+        .range(0, 1e9);
+    t.add("snapshot-every-s", d.snapshot_every_s, "or this many seconds after the last one (0: not by time)")
+        .range(0.0, 1e7);
+    t.add("snapshot-on-exit", d.snapshot_on_exit, "snapshot on shutdown (a restart then replays nothing)");
   }
   {
     cli::OptionTable& t = tables.emplace_back("Shutdown (SIGINT / SIGTERM)");

@@ -15,6 +15,9 @@ RobotCounters ServiceStatistics::totals() const {
     t.processed += r.processed;
     t.dropped += r.dropped;
     t.rejected += r.rejected;
+    t.duplicates += r.duplicates;
+    t.durable_scans += r.durable_scans;
+    t.journaled_scans += r.journaled_scans;
     t.points_rejected += r.points_rejected;
   }
   return t;
@@ -28,10 +31,19 @@ std::string ServiceStatistics::summaryLine() const {
     if (st.dropped > 0) stage_text += fmt::format(" ({} scans skipped: behind)", st.dropped);
   }
   return fmt::format(
-      "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms p99 "
-      "{:.1f} ms; map {:.1f} MB; {} queries{}",
-      robots.size(), t.received, t.processed, t.dropped, t.rejected, publish_to_map.p50_ms,
-      publish_to_map.p99_ms, static_cast<double>(memory_bytes) / 1e6, queries_answered, stage_text);
+             "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms "
+             "p99 "
+             "{:.1f} ms; map {:.1f} MB; {} queries{}",
+             robots.size(), t.received, t.processed, t.dropped, t.rejected, publish_to_map.p50_ms,
+             publish_to_map.p99_ms, static_cast<double>(memory_bytes) / 1e6, queries_answered, stage_text) +
+         (durability.enabled
+              ? fmt::format(
+                    "; journal: {} durable scans, {} resends refused, {:.1f} MB, {} fsyncs (p99 {:.1f} ms), "
+                    "{} snapshots{}",
+                    t.durable_scans, t.duplicates, static_cast<double>(durability.bytes) / 1e6,
+                    durability.syncs, durability.sync_ms.p99_ms, durability.snapshots,
+                    durability.failed ? "; FAILED: " + durability.last_error : std::string())
+              : std::string("; journal off"));
 }
 
 std::uint64_t residentBytes() {

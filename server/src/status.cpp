@@ -26,7 +26,7 @@ std::string_view toString(Status s) {
 }
 
 std::string_view commandName(const Command& c) {
-  static constexpr std::string_view kNames[] = {"save", "load", "clear box", "reset"};
+  static constexpr std::string_view kNames[] = {"save", "load", "clear box", "reset", "snapshot"};
   return kNames[c.index()];
 }
 

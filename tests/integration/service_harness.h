@@ -62,6 +62,8 @@ inline ServerOptions serverOptions(int domain) {
   o.dds.loopback = true;
   o.statistics_period_s = 0.2;
   o.map_dir = testMapDir(domain);
+  o.data_dir = o.map_dir + "-data";  // the journal and snapshots of this test alone
+  std::filesystem::remove_all(o.data_dir);
   return o;
 }
 

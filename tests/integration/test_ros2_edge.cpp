@@ -31,6 +31,8 @@ using server::ros2_edge::Ros2EdgeOptions;
 server::ServiceOptions serviceOptions(int domain) {
   server::ServiceOptions o;
   o.map_dir = testMapDir(domain);
+  o.data_dir = o.map_dir + "-data";
+  std::filesystem::remove_all(o.data_dir);
   return o;
 }
 

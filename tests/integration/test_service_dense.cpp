@@ -75,9 +75,10 @@ TEST(ServiceDense, DenseAndFusedLayersAnswerFromTheirMaps) {
   EXPECT_GT(dense_known, probes.size() / 10);
   EXPECT_GT(fused_from_dense, 0u) << "the dense layer should fill cells the exact map never observed";
   const auto stats = h.server->statistics();
-  // occupancy, dense, then the pseudo-stages: queries, map-publish, map-read-wait
-  ASSERT_EQ(stats.stages().size(), 5u);
-  EXPECT_EQ(stats.stages()[1].name(), "dense");
+  // journal, occupancy, dense, then the pseudo-stages: queries, map-publish, map-read-wait
+  ASSERT_EQ(stats.stages().size(), 6u);
+  EXPECT_EQ(stats.stages()[0].name(), "journal");
+  EXPECT_EQ(stats.stages()[2].name(), "dense");
 }
 
 /// Nice values of this process's threads named `name`.

@@ -46,8 +46,9 @@ TEST(ServiceProcesses, ReplayQueryAndCleanShutdownThatSavesTheMap) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string saved = (dir / "map.bt").string(), summary = (dir / "summary.json").string();
-  const pid_t server = spawnProcess({DENSEMAP_SERVER_BINARY, "--domain", "140", "--loopback",
-                                     "--statistics-period", "0.2", "--save-on-exit", saved});
+  const pid_t server =
+      spawnProcess({DENSEMAP_SERVER_BINARY, "--domain", "140", "--loopback", "--statistics-period", "0.2",
+                    "--save-on-exit", saved, "--data-dir", (dir / "data").string()});
   ASSERT_GT(server, 0);
   const std::string dds = " --domain 140 --loopback";
   const auto [replay_rc, replay_out] =

@@ -6,7 +6,7 @@ build="$1"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 dir="$(mktemp -d)"
 dds=(--domain 161 --loopback)
-"$build/server/densemap-server" "${dds[@]}" --statistics-period 1 > "$dir/server.log" 2>&1 &
+"$build/server/densemap-server" "${dds[@]}" --statistics-period 1 --data-dir "$dir/data" > "$dir/server.log" 2>&1 &
 server=$!
 trap 'kill -INT $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
 "$build/client/densemap-replay" "${dds[@]}" --source sim:scans=5,beams=16,columns=256 --rate 5 --loops 100 \

@@ -56,7 +56,8 @@ class Run:
 
     def server(self, tag):
         cmd = [os.path.join(self.a.build, "server", "densemap-server"), *self.dds, "--statistics-period", "1",
-               "--server-id", f"cross-host-{tag}", *self.discovery.get("srv", [])]
+               "--server-id", f"cross-host-{tag}", "--data-dir", os.path.join(self.dir, f"data-{tag}"),
+               *self.discovery.get("srv", [])]
         return self.spawn("srv", cmd, f"server-{tag}.log")
 
     def robot(self, host, tag, scans, extra=None, wait_s=20):

@@ -14,6 +14,7 @@
 #include "densemap/map/octree_map.h"
 #include "densemap/server/map_service.h"
 #include "densemap/update/update_engine.h"
+#include "map_service_helpers.h"
 #include "test_data.h"
 #include "test_simulator.h"
 
@@ -23,78 +24,12 @@ namespace {
 using namespace server;
 using namespace std::chrono_literals;
 
-/// Outcomes heard through the submit callback, waited for by count.
-class Outcomes {
- public:
-  OutcomeCallback callback() {
-    return [this](const ScanJob& j, ScanOutcome o, const std::string& why) {
-      std::lock_guard lock(mutex_);
-      seen_.push_back({j.seq, o, why});
-      changed_.notify_all();
-    };
-  }
-  bool waitFor(std::size_t n, std::chrono::seconds timeout = 120s) {
-    std::unique_lock lock(mutex_);
-    return changed_.wait_for(lock, timeout, [&] { return seen_.size() >= n; });
-  }
-  std::size_t count(ScanOutcome o) {
-    std::lock_guard lock(mutex_);
-    return static_cast<std::size_t>(
-        std::count_if(seen_.begin(), seen_.end(), [&](const auto& s) { return s.outcome == o; }));
-  }
-  std::string lastWhy() {
-    std::lock_guard lock(mutex_);
-    return seen_.empty() ? "" : seen_.back().why;
-  }
-
- private:
-  struct Seen {
-    std::uint64_t seq;
-    ScanOutcome outcome;
-    std::string why;
-  };
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<Seen> seen_;
-};
-
-ScanJob jobOf(const io::Scan& s, const std::string& robot, std::uint64_t seq) {
-  ScanJob j;
-  j.robot_id = robot;
-  j.seq = seq;
-  const Eigen::Vector3d t = s.pose.translation();
-  j.position = {t.x(), t.y(), t.z()};
-  j.quaternion = io::quaternionOf(s.pose);
-  j.scan.points = s.sensorPoints();
-  j.scan.frame = io::PointFrame::kSensor;
-  j.scan.lidar = s.lidar;
-  return j;
-}
-
-std::vector<io::Scan> simScans(int n) {
-  io::LidarSimulator sim(smallSimulator(n));
-  std::vector<io::Scan> out;
-  for (int i = 0; i < n; ++i) out.push_back(sim.read(static_cast<std::size_t>(i)));
-  return out;
-}
-
-/// The offline map of the scans as the service rebuilds them (pose through position + quaternion).
-std::unique_ptr<map::OccupancyMap> offline(const std::vector<io::Scan>& scans, const map::MapOptions& o) {
-  auto m = map::makeMap(o);
-  update::UpdateEngine engine;
-  for (const io::Scan& s : scans) {
-    io::Scan sent = s;
-    const ScanJob j = jobOf(s, "x", 0);
-    sent.pose = io::poseFromQuaternion(j.position, j.quaternion);
-    engine.insert(*m, sent.worldPoints(), sent.origin());
-  }
-  return m;
-}
-
 ServiceOptions options(const std::string& tag) {
   ServiceOptions o;
   o.map_dir = (std::filesystem::temp_directory_path() / ("densemap-unit-" + tag)).string();
   std::filesystem::remove_all(o.map_dir);
+  o.data_dir = o.map_dir + "-data";
+  std::filesystem::remove_all(o.data_dir);
   o.update_nice = 0;
   return o;
 }
@@ -114,34 +49,6 @@ std::vector<float> probabilitiesAt(MapService& service, const std::vector<Vec3f>
     out.insert(out.end(), p.probabilities.begin(), p.probabilities.end());
   }
   return out;
-}
-
-/// Every cell of `expected` is answered with its probability and state, and the map knows no other cell.
-void expectAnswers(MapService& service, const map::OccupancyMap& expected) {
-  const Answer stats = service.answer(StatsQuery{});
-  ASSERT_EQ(stats.status, Status::kOk) << stats.message;
-  EXPECT_EQ(std::get<MapSummary>(stats.result).known_cells, expected.knownCells());
-  std::vector<Vec3f> points;
-  std::vector<float> want;
-  expected.forEachCell([&](const geometry::VoxelKey& k, float v) {
-    points.push_back(expected.converter().toCoord(k));
-    want.push_back(map::OccupancyParams::probability(v));
-  });
-  std::size_t wrong = 0;
-  constexpr std::size_t kChunk = 200'000;  // under the service's per-query limit
-  for (std::size_t begin = 0; begin < points.size(); begin += kChunk) {
-    const std::size_t end = std::min(points.size(), begin + kChunk);
-    PointsQuery q{{points.begin() + static_cast<std::ptrdiff_t>(begin),
-                   points.begin() + static_cast<std::ptrdiff_t>(end)},
-                  Layer::kOccupancy};
-    const Answer a = service.answer(q);
-    ASSERT_EQ(a.status, Status::kOk) << a.message;
-    const auto& p = std::get<PointsAnswer>(a.result);
-    ASSERT_EQ(p.probabilities.size(), end - begin);
-    for (std::size_t i = begin; i < end; ++i)
-      wrong += p.probabilities[i - begin] != want[i] || p.states[i - begin] == CellState::kUnknown;
-  }
-  EXPECT_EQ(wrong, 0u) << "of " << want.size() << " cells";
 }
 
 void submitAll(MapService& s, const std::vector<io::Scan>& scans, Outcomes& out,

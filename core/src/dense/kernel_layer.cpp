@@ -1,7 +1,12 @@
 #include "densemap/dense/kernel_layer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "densemap/util/byte_codec.h"
 
 namespace densemap::dense {
 
@@ -165,5 +170,71 @@ std::optional<float> KernelLayer::probability(const Vec3f& p) const {
 }
 
 std::size_t KernelLayer::memoryBytes() const { return blocks_.size() * (sizeof(Block) + 32); }
+
+}  // namespace densemap::dense
+
+namespace densemap::dense {
+
+namespace {
+constexpr std::uint32_t kStateMagic = 0x4C4B4D44;  // "DMKL"
+constexpr std::uint32_t kStateVersion = 1;
+}  // namespace
+
+std::string KernelLayer::saveState() const {
+  std::string out;
+  util::ByteWriter w(out);
+  w.put(kStateMagic);
+  w.put(kStateVersion);
+  w.string(name());
+  w.put(options_.resolution);
+  std::ostringstream rng;
+  rng << rng_;  // the standard's text form of the engine's state, exact
+  w.string(rng.str());
+  // Sorted by key, so equal layers give equal bytes.
+  std::vector<std::uint64_t> keys;
+  keys.reserve(blocks_.size());
+  for (const auto& [k, b] : blocks_) keys.push_back(k);
+  std::sort(keys.begin(), keys.end());
+  w.put(static_cast<std::uint64_t>(keys.size()));
+  for (std::uint64_t k : keys) {
+    const Block& b = *blocks_.at(k);
+    w.put(k);
+    w.bytes(b.alpha.data(), sizeof b.alpha);
+    w.bytes(b.beta.data(), sizeof b.beta);
+  }
+  return out;
+}
+
+void KernelLayer::restoreState(std::string_view bytes) {
+  util::ByteReader r(bytes);
+  if (r.get<std::uint32_t>("dense state magic") != kStateMagic) r.fail("not a dense layer state");
+  if (const auto v = r.get<std::uint32_t>("dense state version"); v != kStateVersion)
+    r.fail("dense layer state version " + std::to_string(v) + " is not " + std::to_string(kStateVersion));
+  if (const std::string kind = r.string("dense layer kind", 64); kind != name())
+    r.fail("the state is of a " + kind + " layer, this layer is " + name());
+  if (const auto res = r.get<double>("dense resolution"); res != options_.resolution)
+    r.fail("the state has resolution " + std::to_string(res) + " m, this layer " +
+           std::to_string(options_.resolution) + " m");
+  std::mt19937_64 rng;
+  {
+    std::istringstream in(r.string("dense generator state", 1 << 16));
+    in >> rng;
+    if (!in) r.fail("the dense layer's generator state does not parse");
+  }
+  constexpr std::size_t kBlockBytes = sizeof(std::uint64_t) + 2 * sizeof(Block::alpha);
+  const std::uint64_t n = r.count("dense block count", kBlockBytes);
+  std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks;
+  blocks.reserve(n);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    const auto key = r.get<std::uint64_t>("dense block key");
+    auto b = std::make_unique<Block>();
+    std::memcpy(b->alpha.data(), r.take(sizeof b->alpha, "dense block alpha"), sizeof b->alpha);
+    std::memcpy(b->beta.data(), r.take(sizeof b->beta, "dense block beta"), sizeof b->beta);
+    if (!blocks.emplace(key, std::move(b)).second) r.fail("dense block " + std::to_string(key) + " twice");
+  }
+  if (!r.done()) r.fail(std::to_string(r.remaining()) + " bytes after the dense layer state");
+  blocks_ = std::move(blocks);
+  rng_ = rng;
+}
 
 }  // namespace densemap::dense

@@ -91,6 +91,9 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     reply_writer_ = node_->writer(replies, msg::kReplyWriterProfile);
     admin_reply_writer_ = node_->writer(admin_replies, msg::kReplyWriterProfile);
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
+    auto* progress = node_->topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
+    progress_writer_ = node_->writer(progress, msg::progressWriterQos());
+    incarnation_ = static_cast<std::uint64_t>(msg::nowNs()) ^ (static_cast<std::uint64_t>(::getpid()) << 48);
     // Another server on these topics shows itself by its statistics. Look before taking any scan or query.
     {
       const msg::ServerStatistics own = toWire(service_.statistics());
@@ -102,6 +105,8 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, nullptr);
     admin_reader_ = node_->reader(admin_requests, msg::kMessageReaderProfile, nullptr);
     for (auto* r : {scan_reader_, query_reader_, admin_reader_}) r->set_listener(listener_.get());
+    // Once the scan reader exists: what a reconnecting robot resumes from (it resends what follows).
+    publishProgress();
   } catch (...) {
     util::setRealtimePriority(0);
     throw;
@@ -353,20 +358,37 @@ void DdsEdge::adminLoop() {
   }
 }
 
+void DdsEdge::publishProgress() {
+  msg::RobotProgress m = toWire(service_.durableProgress(), service_.options().server_id, incarnation_,
+                                service_.options().durability.journal);
+  progress_writer_->write(&m);
+}
+
 void DdsEdge::ackLoop() {
+  // Robot progress goes out with the acknowledgements, at most every 100 ms (a reconnecting robot reads
+  // the last one: transient local), and once more when nothing new came for 100 ms.
+  auto last_progress = std::chrono::steady_clock::now();
+  bool progress_due = false;
   for (;;) {
     std::deque<msg::ScanAck> batch;
     {
       std::unique_lock lock(wake_mutex_);
-      acks_ready_.wait(lock, [&] { return !ack_backlog_.empty() || !workers_running_; });
-      if (ack_backlog_.empty()) return;
+      acks_ready_.wait_for(lock, 100ms, [&] { return !ack_backlog_.empty() || !workers_running_; });
+      if (ack_backlog_.empty() && !workers_running_) break;
       batch.swap(ack_backlog_);
     }
     for (msg::ScanAck& a : batch) {
       a.server_id(service_.options().server_id);
       ack_writer_->write(&a);
+      progress_due |= a.durable();
+    }
+    if (progress_due && std::chrono::steady_clock::now() - last_progress >= 100ms) {
+      publishProgress();
+      last_progress = std::chrono::steady_clock::now();
+      progress_due = false;
     }
   }
+  if (progress_due) publishProgress();
 }
 
 void DdsEdge::statisticsLoop() {

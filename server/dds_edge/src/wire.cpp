@@ -66,9 +66,11 @@ msg::ScanAck toAck(const ScanJob& job, ScanOutcome outcome, const std::string& w
   msg::ScanAck ack;
   ack.robot_id(job.robot_id);
   ack.seq(job.seq);
-  ack.outcome(outcome == ScanOutcome::kInMap     ? msg::SCAN_APPLIED
-              : outcome == ScanOutcome::kDropped ? msg::SCAN_DROPPED
-                                                 : msg::SCAN_REJECTED);
+  ack.outcome(outcome == ScanOutcome::kInMap       ? msg::SCAN_APPLIED
+              : outcome == ScanOutcome::kDropped   ? msg::SCAN_DROPPED
+              : outcome == ScanOutcome::kDuplicate ? msg::SCAN_DUPLICATE
+                                                   : msg::SCAN_REJECTED);
+  ack.durable(job.durable && (outcome == ScanOutcome::kInMap || outcome == ScanOutcome::kDuplicate));
   ack.message(why);
   ack.publish_ns(job.publish_ns);
   ack.done_ns(outcome == ScanOutcome::kInMap ? job.in_map_ns : util::wallClockNs());
@@ -231,6 +233,10 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
     r.queue_depth(static_cast<std::uint32_t>(c.queue_depth));
     r.queue_capacity(static_cast<std::uint32_t>(c.queue_capacity));
     r.last_sequence(c.last_seq);
+    r.duplicates(c.duplicates);
+    r.durable_scans(c.durable_scans);
+    r.journaled_scans(c.journaled_scans);
+    r.last_durable_sequence(c.last_durable_seq);
     m.robots().push_back(std::move(r));
   }
   for (const StageCounters& c : s.stages) {
@@ -256,7 +262,39 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
   m.commands_done(s.commands_done);
   m.commands_failed(s.commands_failed);
   m.resident_bytes(s.resident_bytes);
-  m.samples_undecodable(msg::undecodableSamples());  // counted by the edge's readers, not the service
+  m.samples_undecodable(msg::undecodableSamples());
+  m.journal(s.durability.enabled);
+  m.journal_failed(s.durability.failed);
+  m.journal_bytes(s.durability.bytes);
+  m.journal_syncs(s.durability.syncs);
+  m.journal_failures(s.durability.failures);
+  m.snapshots(s.durability.snapshots);
+  m.recovered_records(s.durability.recovered_records);  // counted by the edge's readers, not the service
+  return m;
+}
+
+msg::RobotProgress toWire(const durability::RobotProgress& p, const std::string& server_id,
+                          std::uint64_t incarnation, bool journal) {
+  msg::RobotProgress m;
+  m.server_id(server_id);
+  m.incarnation(incarnation);
+  m.stamp_ns(util::wallClockNs());
+  m.journal(journal);
+  p.forEachRobot([&](const std::string& id, std::uint64_t count, std::uint64_t, std::uint64_t last) {
+    msg::RobotDurability r;
+    r.robot_id(id);
+    r.last_durable_sequence(last);
+    r.durable_scans(count);
+    for (const auto& [first, l] : p.recentIntervals(id, 256)) {
+      r.intervals().push_back(first);
+      r.intervals().push_back(l);
+    }
+    for (const auto& [first, l] : p.appliedOrder(id, 256)) {
+      r.applied_order().push_back(first);
+      r.applied_order().push_back(l);
+    }
+    m.robots().push_back(std::move(r));
+  });
   return m;
 }
 

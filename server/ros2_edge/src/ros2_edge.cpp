@@ -265,7 +265,10 @@ bool Ros2Edge::tryPlace(Pending& p, std::string& why) {
   std::uint64_t seq;
   {
     std::lock_guard lock(mutex_);
-    seq = next_seq_++;
+    // The cloud's stamp is its sequence number: unique per sensor and the same after either side
+    // restarts, so a journaled cloud sent again (a bag replayed, a bridge reconnecting) is applied once.
+    const std::int64_t stamp = p.cloud.header.stamp.nanoseconds();
+    seq = stamp > 0 ? static_cast<std::uint64_t>(stamp) : next_seq_++;
     ++counters_.clouds_submitted;
     tf_wait_.add(std::chrono::duration<double, std::milli>(Clock::now() - p.arrived).count());
   }

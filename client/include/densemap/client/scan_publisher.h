@@ -25,7 +25,9 @@ struct AckCounts {
   std::uint64_t applied = 0;
   std::uint64_t rejected = 0;
   std::uint64_t dropped = 0;
-  std::uint64_t total() const { return applied + rejected + dropped; }
+  std::uint64_t duplicate = 0;  ///< resends the server had in its map already
+  std::uint64_t durable = 0;    ///< acknowledgements that say the scan is on the server's disk
+  std::uint64_t total() const { return applied + rejected + dropped + duplicate; }
 };
 
 class ScanPublisher {
@@ -56,6 +58,11 @@ class ScanPublisher {
   std::vector<double> latenciesMs(const std::set<std::string>& robots) const;
   /// Called (on a DDS thread, one at a time) for every acknowledgement as it arrives, e.g. to log it.
   void setAckObserver(std::function<void(const msg::ScanAck&)> observer);
+  /// The server's last robot-progress message (what it keeps of each robot), if one arrived.
+  std::optional<msg::RobotProgress> progress() const;
+  /// Waits up to `timeout` for a progress message (from a server other than `incarnation`, when given).
+  std::optional<msg::RobotProgress> waitForProgress(std::chrono::milliseconds timeout,
+                                                    std::optional<std::uint64_t> not_incarnation = {});
   /// The last statistics message from the server, if one arrived.
   std::optional<msg::ServerStatistics> lastStatistics() const;
   /// Waits for a statistics message newer than now in which these robots' counts add up to `expected`.
@@ -66,11 +73,14 @@ class ScanPublisher {
  private:
   class Listener;
   void onAcks(eprosima::fastdds::dds::DataReader* reader);
+  void onProgress(eprosima::fastdds::dds::DataReader* reader);
 
   msg::DdsNode& node_;
   std::unique_ptr<Listener> listener_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   eprosima::fastdds::dds::DataReader* ack_reader_ = nullptr;
+  eprosima::fastdds::dds::DataReader* progress_reader_ = nullptr;
+  std::optional<msg::RobotProgress> progress_;  // guarded by mutex_
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
@@ -87,5 +97,11 @@ struct RobotTotals {
   std::uint64_t received = 0, processed = 0, dropped = 0, rejected = 0;
 };
 RobotTotals totalsFor(const msg::ServerStatistics& s, const std::set<std::string>& robots);
+
+/// A robot's last durable sequence number in a progress message (nullopt: the server has none of it).
+std::optional<std::uint64_t> lastDurableSeq(const msg::RobotProgress& p, const std::string& robot_id);
+/// True when a progress message shows (robot, seq) durable on the server. False also when the message's
+/// intervals do not reach back that far: then the scan is resent, and the server refuses it if it has it.
+bool heldDurably(const msg::RobotProgress& p, const std::string& robot_id, std::uint64_t seq);
 
 }  // namespace densemap::client

@@ -12,6 +12,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -112,6 +113,13 @@ class KernelLayer {
   const KernelLayerOptions& options() const { return options_; }
   const geometry::KeyConverter& converter() const { return converter_; }
   void clear() { blocks_.clear(); }
+
+  /// The layer's whole state (every block's evidence and the free-sample generator's state), for
+  /// snapshots: a layer restored from it continues bit for bit as this one would.
+  std::string saveState() const;
+  /// Replaces this layer's state with saveState()'s bytes. Throws util::FormatError (damaged bytes, or
+  /// state of another kind of layer or resolution) and then leaves the layer as it was.
+  void restoreState(std::string_view bytes);
 
  protected:
   /// One kernel per sample. `max_range` is the longest ray of the scan (sets search radii).

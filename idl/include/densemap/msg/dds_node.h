@@ -32,6 +32,7 @@ inline constexpr const char* kQueryReplyTopic = "densemap/query/reply";
 inline constexpr const char* kAdminRequestTopic = "densemap/admin/request";
 inline constexpr const char* kAdminReplyTopic = "densemap/admin/reply";
 inline constexpr const char* kStatisticsTopic = "densemap/statistics";
+inline constexpr const char* kRobotProgressTopic = "densemap/robot_progress";
 
 /// Profile names in config/dds_profiles.xml.
 inline constexpr const char* kScanWriterProfile = "scan_writer";
@@ -42,6 +43,11 @@ inline constexpr const char* kMessageReaderProfile = "message_reader";
 /// the history, so large replies do not stay pinned in it until 256 later ones replace them.
 inline constexpr const char* kReplyWriterProfile = "reply_writer";
 inline constexpr double kReplyLifespanS = 10.0;
+
+/// densemap/robot_progress: reliable, transient local, the last sample kept, so a robot that connects
+/// later still reads the latest one.
+eprosima::fastdds::dds::DataWriterQos progressWriterQos();
+eprosima::fastdds::dds::DataReaderQos progressReaderQos();
 
 struct DdsOptions {
   /// DDS domain id (every program takes --domain N).

@@ -27,7 +27,10 @@ struct ClearBoxCommand {
 /// Forget the whole map, both layers.
 struct ResetCommand {};
 
-using Command = std::variant<SaveCommand, LoadCommand, ClearBoxCommand, ResetCommand>;
+/// Write a snapshot of both layers to the data directory now (the journal behind it is then removed).
+struct SnapshotCommand {};
+
+using Command = std::variant<SaveCommand, LoadCommand, ClearBoxCommand, ResetCommand, SnapshotCommand>;
 
 std::string_view commandName(const Command& c);
 

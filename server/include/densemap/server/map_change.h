@@ -5,6 +5,7 @@
 
 #include <future>
 #include <memory>
+#include <string>
 
 #include "densemap/map/occupancy_map.h"
 #include "densemap/server/command.h"
@@ -17,8 +18,16 @@ struct MapChange {
   Command command;
   /// LoadCommand: the decoded map the occupancy stage swaps in.
   std::unique_ptr<map::OccupancyMap> loaded;
-  /// SaveCommand: the copy the occupancy stage takes (written to disk off the writer thread).
+  /// LoadCommand: the file's bytes (the journal keeps them, so a replay does not need the file).
+  std::string loaded_file;
+  /// SaveCommand, SnapshotCommand: the copy the occupancy stage takes (written to disk off the writer
+  /// thread).
   std::unique_ptr<map::OccupancyMap> snapshot;
+  /// SnapshotCommand: the last journal record before it and the robots' progress then (journal stage),
+  /// and the dense layer's state (dense stage).
+  std::uint64_t snapshot_lsn = 0;
+  std::string snapshot_progress;
+  std::string dense_state;
   double snapshot_ms = 0.0;  ///< how long taking the snapshot held up the map update
   CommandResult result;
   std::promise<void> done;  ///< set when the last stage has applied it (or the pipeline gave it up)

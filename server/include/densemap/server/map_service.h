@@ -7,11 +7,16 @@
 #pragma once
 
 #include <chrono>
+#include <condition_variable>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
 
 #include "densemap/server/command.h"
+#include "densemap/server/durability/data_directory.h"
+#include "densemap/server/durability/journal_stage.h"
 #include "densemap/server/latency_window.h"
 #include "densemap/server/map_directory.h"
 #include "densemap/server/map_stores.h"
@@ -23,6 +28,9 @@
 
 namespace densemap::server {
 
+class OccupancyStage;
+class DenseStage;
+
 /// What submit() did with a scan at the door.
 struct SubmitResult {
   bool accepted = false;  ///< queued; its final outcome comes through the outcome listener
@@ -31,8 +39,10 @@ struct SubmitResult {
 
 class MapService {
  public:
-  /// Builds the layers and the pipeline and starts the pipeline's threads. Throws std::invalid_argument
-  /// (with a message naming the option) or std::runtime_error (e.g. a missing ILN weights file).
+  /// Builds the layers, recovers them from the data directory (newest snapshot + the journal after it),
+  /// and starts the pipeline's threads. Throws std::invalid_argument (with a message naming the option),
+  /// durability::RecoveryError (a data directory that cannot be used as it is: the message says what to
+  /// do) or std::runtime_error (e.g. a missing ILN weights file).
   explicit MapService(ServiceOptions options);
   ~MapService();
   MapService(const MapService&) = delete;
@@ -66,7 +76,18 @@ class MapService {
   const DenseStore* denseStore() const { return dense_store_.get(); }
   const MapDirectory& mapDirectory() const { return *map_dir_; }
 
+  /// The highest durable sequence number of a robot (nullopt: none, or the journal is off).
+  std::optional<std::uint64_t> lastDurableSeq(const std::string& robot_id) const;
+  /// Every robot's durable progress (empty with the journal off).
+  durability::RobotProgress durableProgress() const;
+  /// What the start-up recovery found (nullopt with the journal off).
+  const std::optional<durability::RecoveryReport>& recovery() const { return recovery_; }
+
  private:
+  CommandResult snapshot();
+  void snapshotLoop();
+  void snapshotOnExit();
+  std::unique_ptr<durability::JournalStage> recoverInto(OccupancyStage& occupancy, DenseStage* dense);
   CommandResult runChange(std::shared_ptr<MapChange> change);
   CommandResult save(const SaveCommand& c);
   CommandResult load(const LoadCommand& c);
@@ -79,6 +100,18 @@ class MapService {
   std::unique_ptr<QueryAnswerer> answerer_;
   std::unique_ptr<Pipeline> pipeline_;
   LatencyWindow snapshot_ms_;
+  std::unique_ptr<durability::DataDirectory> data_dir_;
+  durability::JournalStage* journal_ = nullptr;  // owned by the pipeline
+  std::optional<durability::RecoveryReport> recovery_;
+  std::mutex snapshot_mutex_;  // one snapshot at a time
+  std::chrono::steady_clock::time_point last_snapshot_;
+  std::atomic<std::uint64_t> snapshots_written_{0}, snapshot_failures_{0}, last_snapshot_lsn_{0},
+      last_snapshot_bytes_{0};
+  LatencyWindow snapshot_write_ms_;
+  std::mutex snapshot_loop_mutex_;
+  std::condition_variable snapshot_loop_wake_;
+  bool snapshot_loop_stop_ = false;
+  std::thread snapshot_thread_;
   std::atomic<std::uint64_t> commands_done_{0}, commands_failed_{0};
   std::mutex stop_mutex_;
   bool stopped_ = false;

@@ -21,8 +21,12 @@ class OccupancyStage : public PipelineStage {
   StageResult process(ScanJob& job) override;
   bool commitsToMap() const override { return true; }
   void applyChange(MapChange& change) override;
+  /// process() without the priority handling: a journal replay at start-up, on the caller's thread.
+  StageResult replay(ScanJob& job);
 
  private:
+  StageResult apply(ScanJob& job);
+
   MapStore& store_;
   update::UpdateEngine engine_;
   UpdatePriority priority_;

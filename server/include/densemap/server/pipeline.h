@@ -38,8 +38,13 @@ struct RobotCounters {
   std::uint64_t processed = 0;  ///< in the map
   std::uint64_t dropped = 0;
   std::uint64_t rejected = 0;
+  std::uint64_t duplicates = 0;  ///< resends of scans in the map already (durable, not applied again)
   std::uint64_t points_rejected = 0;
   std::uint64_t last_seq = 0;
+  // From the journal, over every run of the server (0 with the journal off):
+  std::uint64_t durable_scans = 0;     ///< distinct sequence numbers in the map, durable
+  std::uint64_t journaled_scans = 0;   ///< scan records journaled (durable_scans unless one came twice)
+  std::uint64_t last_durable_seq = 0;  ///< the highest durable sequence number (valid when durable_scans > 0)
   std::size_t queue_depth = 0;
   std::size_t queue_capacity = 0;
 };
@@ -103,6 +108,11 @@ class Pipeline {
   Robot* robot(const std::string& id);
   std::optional<ScanJob> nextRoundRobin();
   void runStage(std::size_t index);
+  /// The stage's next job (the round robin for the first stage), waiting up to `timeout`; sets `finished`
+  /// once its input is closed and empty.
+  std::optional<ScanJob> next(std::size_t index, std::chrono::microseconds timeout, bool& finished);
+  /// Hands a job the stage is done with on: to the next stage, or to its outcome.
+  void pass(std::size_t index, ScanJob&& job, const StageResult& result);
   void finish(const ScanJob& job, ScanOutcome outcome, const std::string& why);
 
   PipelineOptions options_;

@@ -2,7 +2,10 @@
 // its own worker thread; later features add a stage without touching the others.
 #pragma once
 
+#include <chrono>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "densemap/server/bounded_queue.h"
 #include "densemap/server/map_change.h"
@@ -12,8 +15,10 @@ namespace densemap::server {
 
 struct StageResult {
   bool ok = true;
-  std::string error;  ///< why the scan was rejected (when !ok)
-  static StageResult reject(std::string why) { return {false, std::move(why)}; }
+  std::string error;       ///< why the scan was rejected (when !ok), or why it is a duplicate
+  bool duplicate = false;  ///< with !ok: the scan is in the map already (outcome kDuplicate)
+  static StageResult reject(std::string why) { return {false, std::move(why), false}; }
+  static StageResult alreadyInMap(std::string why) { return {false, std::move(why), true}; }
 };
 
 class PipelineStage {
@@ -30,6 +35,15 @@ class PipelineStage {
   /// How the stage's input queue behaves when the stage falls behind. A stage that may lag (a dense layer)
   /// drops the oldest scans; the exact map waits so that it never misses a scan.
   virtual OverflowPolicy inputPolicy() const { return OverflowPolicy::kWait; }
+
+  /// A stage that works on groups (the journal: one fsync per group) returns how long a group stays open
+  /// after its first job; the pipeline then calls processGroup() instead of process() and applyChange().
+  virtual std::optional<std::chrono::microseconds> groupWindow() const { return std::nullopt; }
+  /// Every job of a group in order (scans and commands); results[i] is job i's (scans only).
+  virtual void processGroup(std::vector<ScanJob>& jobs, std::vector<StageResult>& results) {
+    (void)jobs;
+    (void)results;
+  }
 };
 
 }  // namespace densemap::server

@@ -14,7 +14,8 @@ namespace densemap::server {
 struct MapChange;
 struct ScanJob;
 
-enum class ScanOutcome { kInMap, kRejected, kDropped };
+/// kDuplicate: the (robot, seq) pair is in the map already (a resend); it is durable and not applied again.
+enum class ScanOutcome { kInMap, kRejected, kDropped, kDuplicate };
 
 /// Hears a scan's final outcome once (on a pipeline thread, or the submitting one for rejections at the
 /// door); `why` explains rejections and drops. It must not block: the edges queue their acknowledgements.
@@ -34,6 +35,7 @@ struct ScanJob {
   std::uint32_t points_rejected = 0;  ///< non-finite or out-of-key-range points removed
   std::uint64_t map_version = 0;      ///< map version once the scan is in the map
   std::int64_t in_map_ns = 0;         ///< when the scan was in the map (system clock)
+  bool durable = false;               ///< in the journal and synced (set by the journal stage)
   std::shared_ptr<MapChange> change;  ///< set: this job is a command, not a scan
   OutcomeCallback on_outcome;         ///< the submitting edge's, called once with the outcome
 };

@@ -8,6 +8,7 @@
 #include "densemap/dense/dense_layer_factory.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/server/densify_stage.h"
+#include "densemap/server/durability/durability_options.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query_answerer.h"
 #include "densemap/server/scan_validator.h"
@@ -44,7 +45,11 @@ struct ServiceOptions {
   /// query p99 ~22 ms instead of ~10; docs/BENCHMARKS.md). Going below 0 needs root, CAP_SYS_NICE or
   /// RLIMIT_NICE >= 20 - value; without it the server keeps 0 and says so.
   int update_late_nice = 0;
-  /// The service's data directory (maps; later the journal).
+  /// The dense stage's input when it falls behind: drop the oldest scans, or wait (every scan reaches it).
+  OverflowPolicy dense_overflow = OverflowPolicy::kDropOldest;
+  /// The journal and snapshots in DATA_DIR (docs/DURABILITY.md).
+  durability::DurabilityOptions durability{};
+  /// The service's data directory (the journal, snapshots, and maps).
   std::string data_dir = "densemap-data";
   /// Where save and load requests read and write (a request names a file, never a path); empty:
   /// DATA_DIR/maps.

@@ -11,6 +11,21 @@
 
 namespace densemap::server {
 
+/// The journal and the snapshots (all zero with the journal off).
+struct DurabilityStatistics {
+  bool enabled = false;
+  std::uint64_t records = 0, bytes = 0, syncs = 0;  ///< journaled this run
+  std::uint64_t duplicates = 0;                     ///< resends refused as in the map already
+  std::uint64_t failures = 0;                       ///< scans and commands the journal could not take
+  bool failed = false;                              ///< an fsync failed: scans are refused until a restart
+  std::string last_error;
+  std::uint64_t last_lsn = 0;
+  std::uint64_t snapshots = 0, snapshot_failures = 0, snapshot_lsn = 0, snapshot_bytes = 0;
+  std::uint64_t recovered_records = 0;  ///< journal records replayed at start-up
+  double recovery_s = 0.0;
+  LatencySummary sync_ms, snapshot_ms;
+};
+
 struct ServiceStatistics {
   std::string server_id;
   std::int64_t stamp_ns = 0;  ///< system clock
@@ -32,6 +47,7 @@ struct ServiceStatistics {
   std::uint64_t commands_done = 0;
   std::uint64_t commands_failed = 0;
   std::uint64_t resident_bytes = 0;
+  DurabilityStatistics durability;
 
   /// Totals over the robots.
   RobotCounters totals() const;

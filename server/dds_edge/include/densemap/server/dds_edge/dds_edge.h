@@ -84,6 +84,7 @@ class DdsEdge {
   void takeCommands();
   void adminLoop();
   void ackLoop();
+  void publishProgress();
   void statisticsLoop();
   void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
   std::size_t refuseScansStillInDds();
@@ -106,6 +107,8 @@ class DdsEdge {
   eprosima::fastdds::dds::DataWriter* reply_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* admin_reply_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* stats_writer_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* progress_writer_ = nullptr;
+  std::uint64_t incarnation_ = 0;
 
   std::mutex wake_mutex_;
   std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;

@@ -8,6 +8,7 @@
 
 #include "densemap/msg/densemap.h"
 #include "densemap/server/command.h"
+#include "densemap/server/durability/robot_progress.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query.h"
 #include "densemap/server/scan_job.h"
@@ -33,6 +34,8 @@ msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& result
 msg::QueryStatus toWire(Status s);
 msg::MapStatistics toWire(const MapSummary& s);
 msg::ServerStatistics toWire(const ServiceStatistics& s);
+msg::RobotProgress toWire(const durability::RobotProgress& p, const std::string& server_id,
+                          std::uint64_t incarnation, bool journal);
 /// When the server that sent `m` started (its stamp minus its uptime, system clock ns); nullopt when the
 /// stamp or uptime cannot be one (NaN, negative, beyond the clock's range). Another server's statistics
 /// are read to tell which of two servers on the same topics started first.

@@ -1,0 +1,39 @@
+// libFuzzer target for a snapshot as densemap-server loads it at start-up: the file's framing and sections
+// (decodeSnapshot), the robots' progress (RobotProgress::decode) and the dense layer's state
+// (KernelLayer::restoreState). Each must refuse damage with util::FormatError, and a refused restore must
+// leave the layer as it was.
+#include <cstdlib>
+#include <string_view>
+
+#include "densemap/dense/dense_layer_factory.h"
+#include "densemap/server/durability/robot_progress.h"
+#include "densemap/server/durability/snapshot_file.h"
+#include "densemap/util/byte_codec.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  namespace du = densemap::server::durability;
+  const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+  try {
+    (void)du::decodeSnapshot(bytes);
+  } catch (const densemap::util::FormatError&) {
+  }
+  try {
+    const du::RobotProgress p = du::RobotProgress::decode(bytes);
+    if (du::RobotProgress::decode(p.encode()) != p) std::abort();  // what decodes, encodes back the same
+  } catch (const densemap::util::FormatError&) {
+  }
+  static const auto layer = [] {
+    densemap::dense::DenseLayerOptions o;
+    o.method = "akimap";
+    return densemap::dense::makeDenseLayer(o, 0.2);
+  }();
+  const std::string before = layer->saveState();
+  try {
+    layer->restoreState(bytes);
+    if (layer->saveState().size() > size + 64) std::abort();
+  } catch (const densemap::util::FormatError&) {
+    if (layer->saveState() != before) std::abort();
+  }
+  layer->clear();
+  return 0;
+}
