@@ -79,6 +79,19 @@ void flipByte(const fs::path& file, std::uint64_t offset) {
   f.write(&c, 1);
 }
 
+/// Maps the scans in a service that stops without a final snapshot: the newest segment and the offsets
+/// of its records.
+std::pair<fs::path, std::vector<std::uint64_t>> journalOnly(const ServiceOptions& o,
+                                                            const std::vector<io::Scan>& scans) {
+  {
+    MapService a(o);
+    Outcomes out;
+    run(a, scans, out);
+  }
+  const fs::path seg = segments(o).back();
+  return {seg, recordOffsets(seg)};
+}
+
 void expectRestartIsExact(const std::vector<io::Scan>& scans, const std::string& backend) {
   TempDir tmp;
   ServiceOptions o = durableOptions(tmp.path, backend);
@@ -214,13 +227,7 @@ TEST(RestartDamage, TornTailIsCutOffAndTheServiceContinues) {
   TempDir tmp;
   const auto scans = simScans(4);
   ServiceOptions o = durableOptions(tmp.path);
-  {
-    MapService a(o);
-    Outcomes out;
-    run(a, scans, out);
-  }
-  const fs::path seg = segments(o).back();
-  const auto offsets = recordOffsets(seg);
+  const auto [seg, offsets] = journalOnly(o, scans);
   ASSERT_EQ(offsets.size(), 4u);
   fs::resize_file(seg, offsets[3] + 50);  // the last record's write, cut short
   MapService b(o);
@@ -240,13 +247,7 @@ TEST(RestartDamage, FlippedBitInTheMiddleRefusesToStartThenCutKeepsThePrefix) {
   TempDir tmp;
   const auto scans = simScans(5);
   ServiceOptions o = durableOptions(tmp.path);
-  {
-    MapService a(o);
-    Outcomes out;
-    run(a, scans, out);
-  }
-  const fs::path seg = segments(o).back();
-  const auto offsets = recordOffsets(seg);
+  const auto [seg, offsets] = journalOnly(o, scans);
   flipByte(seg, offsets[2] + du::kRecordHeaderBytes + 300);
   try {
     MapService b(o);

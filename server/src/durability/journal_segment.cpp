@@ -147,8 +147,10 @@ std::string payloadOf(const RecordView& r, std::uint64_t max_payload) {
 
 std::string segmentFileName(std::uint64_t first_lsn) { return fmt::format("{:020}.dmj", first_lsn); }
 
-std::optional<std::uint64_t> segmentFirstLsn(const std::string& name) {
-  if (name.size() != 24 || !name.ends_with(".dmj")) return std::nullopt;
+std::optional<std::uint64_t> segmentFirstLsn(const std::string& name) { return lsnOfFileName(name, ".dmj"); }
+
+std::optional<std::uint64_t> lsnOfFileName(const std::string& name, std::string_view extension) {
+  if (name.size() != 20 + extension.size() || !name.ends_with(extension)) return std::nullopt;
   std::uint64_t v = 0;
   for (std::size_t i = 0; i < 20; ++i) {
     if (name[i] < '0' || name[i] > '9') return std::nullopt;

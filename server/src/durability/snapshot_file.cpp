@@ -101,15 +101,7 @@ SnapshotContents decodeSnapshot(std::string_view bytes) {
 
 std::string snapshotFileName(std::uint64_t lsn) { return fmt::format("{:020}.dms", lsn); }
 
-std::optional<std::uint64_t> snapshotLsn(const std::string& name) {
-  if (name.size() != 24 || !name.ends_with(".dms")) return std::nullopt;
-  std::uint64_t v = 0;
-  for (std::size_t i = 0; i < 20; ++i) {
-    if (name[i] < '0' || name[i] > '9') return std::nullopt;
-    v = v * 10 + static_cast<std::uint64_t>(name[i] - '0');
-  }
-  return v;
-}
+std::optional<std::uint64_t> snapshotLsn(const std::string& name) { return lsnOfFileName(name, ".dms"); }
 
 void writeFileAtomically(const std::filesystem::path& path, std::string_view bytes) {
   const std::filesystem::path tmp = path.string() + ".tmp";

@@ -69,6 +69,8 @@ std::string payloadOf(const RecordView& r, std::uint64_t max_payload);
 std::string segmentFileName(std::uint64_t first_lsn);
 /// The LSN a segment's file name starts at, or nullopt for names that are not segments.
 std::optional<std::uint64_t> segmentFirstLsn(const std::string& file_name);
+/// The LSN of a file named <20 digits><extension> (segments, snapshots), or nullopt.
+std::optional<std::uint64_t> lsnOfFileName(const std::string& file_name, std::string_view extension);
 
 /// fsync of a directory (after a file in it was created, renamed or removed). Throws StorageError.
 void syncDirectory(const std::filesystem::path& dir);
