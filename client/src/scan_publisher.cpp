@@ -39,11 +39,19 @@ ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node), statistics_(node
 }
 
 void ScanPublisher::onProgress(dds::DataReader* reader) {
+  // Taken without our mutex: DDS may hold the reader's own lock while it calls the listener, and the
+  // constructor calls this too (a sample that came before the listener), so holding ours while taking
+  // would invert the two locks.
+  std::optional<msg::RobotProgress> latest;
   msg::RobotProgress p;
   dds::SampleInfo info;
-  std::lock_guard lock(mutex_);
   while (reader->take_next_sample(&p, &info) == ReturnCode_t::RETCODE_OK) {
-    if (info.valid_data) progress_ = p;
+    if (info.valid_data) latest = p;
+  }
+  if (!latest) return;
+  {
+    std::lock_guard lock(mutex_);
+    progress_ = std::move(latest);
   }
   changed_.notify_all();
 }
