@@ -368,9 +368,12 @@ int main(int argc, char** argv) {
         client::ScanResender resender(publisher, id, scan_of);
         // The server says which of this robot's scans it has on disk already: a robot that restarts goes on
         // numbering after them (and sends its per-robot count from there), instead of repeating them.
+        // Every server publishes its progress as soon as its scan reader exists, but the progress topic
+        // may match a while after the scans did (seconds over a slow network): waiting only briefly
+        // would start again at 0 and send nothing but duplicates. Bounded for servers without it.
         const std::uint64_t first =
             resume ? resender.resumeFrom(0, std::numeric_limits<std::uint64_t>::max() / 2,
-                                         std::chrono::milliseconds(1000))
+                                         std::min(wait, std::chrono::milliseconds(10000)))
                    : 0;
         for (std::uint64_t n = first; n < first + per_robot; ++n) {
           if (period_s > 0) {

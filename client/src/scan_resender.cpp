@@ -13,16 +13,24 @@ ScanResender::ScanResender(ScanPublisher& publisher, std::string robot_id, ScanO
       scan_of_(std::move(scan_of)),
       resend_after_(resend_after) {}
 
-void ScanResender::publishAgain(std::uint64_t seq) {
+void ScanResender::publishAgain(std::uint64_t seq, bool timed) {
   publisher_.publish(robot_id_, seq, scan_of_(seq));  // a refused one is tried again later
-  unacked_[seq] = std::chrono::steady_clock::now();
+  Unacked& u = unacked_[seq];
+  u.sent = std::chrono::steady_clock::now();
+  u.resends = timed ? u.resends + 1 : 0;
   ++counts_.resent;
 }
 
 std::uint64_t ScanResender::resumeFrom(std::uint64_t first, std::uint64_t end,
                                        std::chrono::milliseconds timeout) {
   const auto p = publisher_.waitForProgress(timeout);
-  if (!p) return first;
+  if (!p) {
+    spdlog::warn(
+        "{}: no robot progress from the server within {} ms: numbering starts at {} (a server "
+        "that has these scans already answers them as duplicates)",
+        robot_id_, timeout.count(), first);
+    return first;
+  }
   incarnation_ = p->incarnation();
   if (!p->journal()) return first;
   const auto last = lastDurableSeq(*p, robot_id_);
@@ -34,7 +42,7 @@ std::uint64_t ScanResender::resumeFrom(std::uint64_t first, std::uint64_t end,
 }
 
 bool ScanResender::send(std::uint64_t seq, std::chrono::steady_clock::time_point deadline) {
-  unacked_[seq] = std::chrono::steady_clock::now();
+  unacked_[seq] = Unacked{std::chrono::steady_clock::now(), 0};
   const io::Scan scan = scan_of_(seq);
   while (!publisher_.publish(robot_id_, seq, scan)) {
     // Refused: the writer's history is full of scans for a server that is gone (until its lease ends).
@@ -69,8 +77,8 @@ void ScanResender::poll() {
     }
   }
   const auto now = std::chrono::steady_clock::now();
-  for (auto& [seq, at] : unacked_) {
-    if (now - at >= resend_after_) publishAgain(seq);
+  for (auto& [seq, u] : unacked_) {
+    if (now - u.sent >= resend_after_ * (1 << std::min(u.resends, 4))) publishAgain(seq, true);
   }
   if (!p || (incarnation_ && p->incarnation() == *incarnation_)) return;
   const bool first_seen = !incarnation_.has_value();
@@ -85,7 +93,7 @@ void ScanResender::poll() {
       it = unacked_.erase(it);
       continue;
     }
-    publishAgain((it++)->first);
+    publishAgain((it++)->first, false);
     ++resent;
   }
   counts_.held += held;

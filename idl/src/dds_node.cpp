@@ -192,26 +192,28 @@ dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const dds::DataRe
   return r;
 }
 
-eprosima::fastdds::dds::DataWriterQos progressWriterQos() {
-  namespace fdds = eprosima::fastdds::dds;
-  fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
-  q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+namespace {
+
+// The progress topic's QoS, the same on both sides so they match: reliable, and transient local with
+// the newest sample kept, so a robot that (re)connects reads what the server holds at once.
+template <typename Qos>
+Qos progressQos(Qos q) {
+  q.reliability().kind = dds::RELIABLE_RELIABILITY_QOS;
+  q.durability().kind = dds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  q.history().kind = dds::KEEP_LAST_HISTORY_QOS;
   q.history().depth = 1;
   q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   return q;
 }
 
-eprosima::fastdds::dds::DataReaderQos progressReaderQos() {
-  namespace fdds = eprosima::fastdds::dds;
-  fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
-  q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 1;
-  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
-  return q;
+}  // namespace
+
+dds::DataWriterQos progressWriterQos() {
+  return progressQos(dds::DataWriterQos(dds::DATAWRITER_QOS_DEFAULT));
+}
+
+dds::DataReaderQos progressReaderQos() {
+  return progressQos(dds::DataReaderQos(dds::DATAREADER_QOS_DEFAULT));
 }
 
 }  // namespace densemap::msg

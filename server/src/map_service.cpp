@@ -109,8 +109,44 @@ std::unique_ptr<durability::JournalStage> MapService::recoverInto(OccupancyStage
       store_->read([](const map::OccupancyMap& m, std::uint64_t) { return m.knownCells(); }),
       options_.data_dir, rep.snapshot_lsn ? "snapshot " + rep.snapshot_file : std::string("no snapshot"),
       rep.records_replayed, scans, commands, rep.seconds, progress.robots());
-  return std::make_unique<du::JournalStage>(data_dir_->openWriter(), std::move(progress),
-                                            options_.durability.journal_sync_ms, rep.records_replayed);
+  auto writer = data_dir_->openWriter();
+  std::uint64_t since_snapshot = rep.records_replayed;
+  const std::uint64_t every = options_.durability.snapshot_every_scans;
+  if (every > 0 && rep.records_replayed >= every) {
+    // A snapshot at the end of recovery (as databases checkpoint after crash recovery): a server that is
+    // killed again before its first periodic snapshot would otherwise replay a longer journal each time.
+    try {
+      const auto t0 = std::chrono::steady_clock::now();
+      writer->rotate();  // the replayed records end in the old segment, which the snapshot removes
+      const du::SnapshotContents s = snapshotOfLayers(writer->lastLsn(), progress.encode());
+      const std::uint64_t bytes = data_dir_->writeSnapshot(s);
+      last_snapshot_lsn_ = s.lsn;
+      last_snapshot_bytes_ = bytes;
+      ++snapshots_written_;
+      since_snapshot = 0;
+      spdlog::info("snapshot after recovery at record {} ({:.1f} MB, {:.0f} ms)", s.lsn,
+                   static_cast<double>(bytes) / 1e6,
+                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    } catch (const std::exception& e) {
+      ++snapshot_failures_;
+      spdlog::warn("no snapshot after recovery: {}; the next restart replays these records again", e.what());
+    }
+  }
+  return std::make_unique<du::JournalStage>(std::move(writer), std::move(progress),
+                                            options_.durability.journal_sync_ms, since_snapshot);
+}
+
+durability::SnapshotContents MapService::snapshotOfLayers(std::uint64_t lsn, std::string progress) const {
+  durability::SnapshotContents s;
+  s.lsn = lsn;
+  s.created_ns = util::wallClockNs();
+  s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
+  s.progress = std::move(progress);
+  s.map = store_->read(
+      [](const map::OccupancyMap& m, std::uint64_t) { return map::encodeMap(m, map::OctomapFormat::kFull); });
+  if (dense_store_)
+    s.dense = dense_store_->read([](const dense::KernelLayer& l, std::uint64_t) { return l.saveState(); });
+  return s;
 }
 
 std::optional<std::uint64_t> MapService::lastDurableSeq(const std::string& robot_id) const {
@@ -196,16 +232,7 @@ void MapService::snapshotOnExit() {
   if (j.last_lsn == last_snapshot_lsn_ && snapshots_written_ > 0) return;
   try {
     const auto t0 = std::chrono::steady_clock::now();
-    durability::SnapshotContents s;
-    s.lsn = j.last_lsn;
-    s.created_ns = util::wallClockNs();
-    s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
-    s.progress = journal_->durableProgress().encode();
-    s.map = store_->read([](const map::OccupancyMap& m, std::uint64_t) {
-      return map::encodeMap(m, map::OctomapFormat::kFull);
-    });
-    if (dense_store_)
-      s.dense = dense_store_->read([](const dense::KernelLayer& l, std::uint64_t) { return l.saveState(); });
+    const durability::SnapshotContents s = snapshotOfLayers(j.last_lsn, journal_->durableProgress().encode());
     const std::uint64_t bytes = data_dir_->writeSnapshot(s);
     spdlog::info("snapshot on exit at record {} ({:.1f} MB, {:.0f} ms)", s.lsn,
                  static_cast<double>(bytes) / 1e6,

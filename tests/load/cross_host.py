@@ -56,7 +56,7 @@ class Run:
 
     def server(self, tag):
         cmd = [os.path.join(self.a.build, "server", "densemap-server"), *self.dds, "--statistics-period", "1",
-               "--server-id", f"cross-host-{tag}", "--data-dir", os.path.join(self.dir, f"data-{tag}"),
+               "--server-id", f"cross-host-{tag}", "--data-dir", os.path.join(self.dir, "data"),
                *self.discovery.get("srv", [])]
         return self.spawn("srv", cmd, f"server-{tag}.log")
 
@@ -81,14 +81,23 @@ class Run:
         scans = int(seconds * RATE)
         return t0, t0_ns, self.robot("ra", "ra", scans), self.robot("rb", "rb", scans), self.query_client(seconds)
 
-    def statistics(self):
-        """The server's next statistics message, asked from the query client's host."""
+    def query(self, what):
+        """densemap-query WHAT --json, asked from the query client's host (None when it got no answer)."""
         cmd = ["ip", "netns", "exec", self.net.ns("q"), os.path.join(self.a.build, "client", "densemap-query"),
-               *self.dds, *self.discovery.get("robot", []), "--timeout", "15", "--json", "statistics"]
+               *self.dds, *self.discovery.get("robot", []), "--timeout", "15", "--json", what]
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             return None
         return json.loads(r.stdout)
+
+    def statistics(self):
+        """The server's next statistics message."""
+        return self.query("statistics")
+
+    def progress(self):
+        """The sequence numbers the server holds durably, per robot: {robot: [(lo, hi), ...]}."""
+        p = self.query("progress")
+        return None if p is None else {r["robot"]: [tuple(i) for i in r["intervals"]] for r in p["robots"]}
 
     def scan_log(self, tag):
         sent, refused, acks = [], [], {}
@@ -105,15 +114,17 @@ class Run:
                     refused.append(e)
                 elif e["event"] == "ack":
                     acks.setdefault(e["seq"], []).append(e)
-        # An acknowledgement is this process's when it names a scan it sent, published right then: a restarted
-        # robot counts sequences from 0 again and may still receive acknowledgements of its predecessor's.
+        # An acknowledgement is this process's when it names a scan it sent, published right then (a restarted
+        # robot goes on numbering after what the server holds, so sequences do not repeat across processes).
         applied = []
         for s in sent:
             for e in acks.get(s["seq"], []):
                 if e["outcome"] == "applied" and 0 <= e["publish_ns"] - s["t_ns"] < 1_000_000_000:
                     applied.append(e)
                     break
-        return {"sent": sent, "refused": refused, "applied": applied}
+        # Durably acknowledged, by any server, also when resent (a resend of a held scan is a duplicate).
+        durable = sorted({q for q, es in acks.items() if any(e.get("durable") for e in es)})
+        return {"sent": sent, "refused": refused, "applied": applied, "durable": durable}
 
 
 def sleep_until(t0, seconds):
@@ -141,9 +152,18 @@ def stop(p):
 
 
 def in_map(stats, robot_id):
+    """A robot's scans in the server's map, over every run of the server on its data directory."""
     if not stats:
         return None
-    return sum(r["processed"] for r in stats["robots"] if r["robot"] == robot_id)
+    return sum(r.get("durable_scans", r["processed"]) for r in stats["robots"] if r["robot"] == robot_id)
+
+
+def not_held(progress, robot_id, seqs):
+    """The sequence numbers of `seqs` that the server's progress does not hold (None without progress)."""
+    if progress is None:
+        return None
+    runs = progress.get(robot_id, [])
+    return [q for q in seqs if not any(lo <= q <= hi for lo, hi in runs)]
 
 
 def latencies(applied, t_from_ns=None, t_to_ns=None):
@@ -182,7 +202,8 @@ def scenario_multicast(a, net, report, failures):
     sleep_until(t0, a.fault_at + 5)
     net.ip_cmd("ra", "link", "set", "eth0", "up")
     up_ns = now()
-    # (b) robot B killed and started again (same robot id, a new process; it counts sequences from 0 again).
+    # (b) robot B killed and started again (same robot id, a new process; it goes on numbering after the
+    # scans the server holds).
     sleep_until(t0, a.fault_at + 14)
     rb.kill()
     rb.wait()
@@ -192,6 +213,7 @@ def scenario_multicast(a, net, report, failures):
     rb2 = run.robot("rb", "rb2", int(max(10.0, duration - (a.fault_at + 16)) * RATE))
     wait_all([ra, rb2, query], duration + 90)
     stats = run.statistics()
+    progress = run.progress()
     stop(server)
 
     la, lb, lb2 = run.scan_log("ra"), run.scan_log("rb"), run.scan_log("rb2")
@@ -210,18 +232,22 @@ def scenario_multicast(a, net, report, failures):
     report["faults"].append({
         "name": "link_down_5s", "robot": "robot-ra-0", "sent": len(la["sent"]), "refused": len(la["refused"]),
         "acknowledged": ack_a, "in_map": map_a,
-        "acknowledged_missing": None if map_a is None else max(0, ack_a - map_a),
+        "acknowledged_missing": None if progress is None else len(not_held(progress, "robot-ra-0", la["durable"])),
         "recovery_s": first_done_after(la["applied"], up_ns),
         "latency_during_p99_ms": percentile(latencies(la["applied"], down_ns, up_ns), 0.99)})
-    ack_b = len(lb["applied"]) + len(lb2["applied"])
+    # Durably acknowledged, whatever the outcome (a resend of a held scan is answered as a duplicate).
+    ack_b = len(set(lb["durable"]) | set(lb2["durable"]))
     map_b = in_map(stats, "robot-rb-0")
     report["faults"].append({
         "name": "robot_killed_restarted", "robot": "robot-rb-0",
-        "sent": len(lb["sent"]) + len(lb2["sent"]), "refused": len(lb["refused"]) + len(lb2["refused"]),
+        "sent": len({e["seq"] for e in lb["sent"] + lb2["sent"]}),
+        "refused": len(lb["refused"]) + len(lb2["refused"]),
         "acknowledged": ack_b, "in_map": map_b,
-        "acknowledged_missing": None if map_b is None else max(0, ack_b - map_b),
+        "acknowledged_missing": None if progress is None else len(not_held(progress, "robot-rb-0",
+                                                                           sorted(set(lb["durable"] + lb2["durable"])))),
         # Mapped but never seen acknowledged: in flight when the robot died.
         "unacknowledged_in_map": None if map_b is None else max(0, map_b - ack_b),
+        "resumed_at": (lb2["sent"][0]["seq"] if lb2["sent"] else None),
         "down_s": (restart_ns - killed_ns) / 1e9,
         "recovery_s": first_done_after(lb2["applied"], restart_ns)})
     if stats is None:
@@ -279,6 +305,7 @@ def scenario_initial_peers(a, net, report, failures):
     server2 = run.server("2")
     wait_all([ra, rb, query], duration + 90)
     stats = run.statistics()
+    progress = run.progress()
     stop(server2)
 
     la, lb = run.scan_log("ra"), run.scan_log("rb")
@@ -286,33 +313,37 @@ def scenario_initial_peers(a, net, report, failures):
     before = latencies(la["applied"], t0_ns, killed_ns) + latencies(lb["applied"], t0_ns, killed_ns)
     report["discovery"]["initial_peers"]["latency_p50_ms"] = percentile(before, 0.5)
     report["discovery"]["initial_peers"]["latency_p99_ms"] = percentile(before, 0.99)
+    # The restarted server recovers the first one's map from the data directory (journal + snapshots):
+    # every scan either server acknowledged as durable must be in the final map, and what the robots sent
+    # while it was down is resent by them (densemap-replay keeps every scan until it is durable).
     old = [e for log in (la, lb) for e in log["applied"] if e["done_ns"] < killed_ns]
-    new = {r: [e for e in log["applied"] if e["done_ns"] > restart_ns] for r, log in (("ra", la), ("rb", lb))}
     map_new = [in_map(stats, f"robot-{r}-0") for r in ("ra", "rb")]
-    acked_new = sum(len(v) for v in new.values())
     recovery = [first_done_after(log["applied"], restart_ns) for log in (la, lb)]
-    missing_new = None if None in map_new else max(0, acked_new - sum(map_new))
+    missing = None if progress is None else [
+        (r, q) for r, log in (("ra", la), ("rb", lb)) for q in not_held(progress, f"robot-{r}-0", log["durable"])]
+    sent_seqs = {r: sorted({e["seq"] for e in log["sent"]}) for r, log in (("ra", la), ("rb", lb))}
+    never = None if progress is None else sum(len(not_held(progress, f"robot-{r}-0", q)) for r, q in sent_seqs.items())
     report["faults"].append({
         "name": "server_killed_restarted", "robot": "robot-ra-0, robot-rb-0",
         "sent": len(la["sent"]) + len(lb["sent"]), "refused": len(la["refused"]) + len(lb["refused"]),
-        "acknowledged": len(la["applied"]) + len(lb["applied"]),
+        "acknowledged": len(la["durable"]) + len(lb["durable"]),
         "in_map": None if None in map_new else sum(map_new),
-        # The restarted server starts with an empty map: what the first one acknowledged is gone with it
-        # (the durability issue brings it back); nothing the new one acknowledged may be missing.
-        "acknowledged_missing": None if missing_new is None else len(old) + missing_new,
-        "lost_with_server": len(old), "acknowledged_missing_after_restart": missing_new,
-        "sent_while_down_or_blocked": sum(1 for log in (la, lb) for e in log["sent"]
-                                          if killed_ns <= e["t_ns"] and not any(
-                                              x["seq"] == e["seq"] for x in log["applied"])),
+        "acknowledged_missing": None if missing is None else len(missing),
+        "acknowledged_before_kill": len(old),
+        "sent_never_in_map": never,
         "down_s": (restart_ns - killed_ns) / 1e9,
         "recovery_s": None if None in recovery else max(recovery)})
     f = report["faults"][-1]
-    if stats is None:
-        failures.append("peers: no statistics from the restarted server")
+    if stats is None or progress is None:
+        failures.append("peers: no statistics or progress from the restarted server")
     if f["recovery_s"] is None:
         failures.append("server_killed_restarted: a robot's scans never reached the restarted server's map")
-    if missing_new:
-        failures.append(f"server_killed_restarted: {missing_new} scans the new server acknowledged are missing")
+    if missing:
+        failures.append(f"server_killed_restarted: {len(missing)} durably acknowledged scans are not in the "
+                        f"restarted server's map (first: {missing[:5]})")
+    if never:
+        failures.append(f"server_killed_restarted: {never} scans sent never reached the map (the robots resend "
+                        "what is not durable)")
     if not before:
         failures.append("peers: no scan reached the map through --dds-peers before the fault")
 
@@ -356,10 +387,10 @@ def main():
         print(f"  {f['name']:<26}{f['sent']:>6}{f['refused']:>8}{f['acknowledged']:>7}{fmt(f['in_map'], 0):>8}"
               f"{fmt(f['acknowledged_missing'], 0):>15}{fmt(f['recovery_s'], 2):>12}")
     for f in report["faults"]:
-        if "lost_with_server" in f:
-            print(f"  server_killed_restarted: {f['lost_with_server']} scans acknowledged by the first server are "
-                  f"lost with its map (no journal yet); {f['sent_while_down_or_blocked']} sent after the kill "
-                  f"never reached a map")
+        if "acknowledged_before_kill" in f:
+            print(f"  server_killed_restarted: {f['acknowledged_before_kill']} scans acknowledged before the kill, "
+                  f"all kept by the restarted server unless 'acked missing' says otherwise; "
+                  f"{fmt(f['sent_never_in_map'], 0)} sent scans never reached the map")
     if a.json:
         with open(a.json, "w") as out:
             json.dump(report, out, indent=2)

@@ -27,7 +27,9 @@ class ScanResender {
  public:
   using ScanOf = std::function<io::Scan(std::uint64_t seq)>;
   /// `resend_after`: a scan still unacknowledged this long after it was sent is sent again (covers a
-  /// resend the restarted server's reader missed while it was still matching).
+  /// resend the restarted server's reader missed while it was still matching); each further resend of
+  /// the same scan waits twice as long (up to 16x), so a server that is slow to catch up is not flooded
+  /// with copies of what it has queued already.
   ScanResender(ScanPublisher& publisher, std::string robot_id, ScanOf scan_of,
                std::chrono::milliseconds resend_after = std::chrono::seconds(5));
 
@@ -48,9 +50,13 @@ class ScanResender {
   ScanPublisher& publisher_;
   std::string robot_id_;
   ScanOf scan_of_;
-  void publishAgain(std::uint64_t seq);
+  void publishAgain(std::uint64_t seq, bool timed);
   std::chrono::milliseconds resend_after_;
-  std::map<std::uint64_t, std::chrono::steady_clock::time_point> unacked_;  // seq -> last sent
+  struct Unacked {
+    std::chrono::steady_clock::time_point sent;
+    int resends = 0;  ///< timed resends since the last restart (the backoff)
+  };
+  std::map<std::uint64_t, Unacked> unacked_;
   std::optional<std::uint64_t> incarnation_;
   ResendCounts counts_;
 };

@@ -87,6 +87,8 @@ class MapService {
   CommandResult snapshot();
   void snapshotLoop();
   void snapshotOnExit();
+  /// Both layers as they are now, read directly (no pipeline thread may be running): recovery, exit.
+  durability::SnapshotContents snapshotOfLayers(std::uint64_t lsn, std::string progress) const;
   std::unique_ptr<durability::JournalStage> recoverInto(OccupancyStage& occupancy, DenseStage* dense);
   CommandResult runChange(std::shared_ptr<MapChange> change);
   CommandResult save(const SaveCommand& c);
