@@ -88,11 +88,13 @@ def main():
         time.sleep(0.1)
     kills = 0
     restart_s = []
+    first_kill = last_up = None
     print(f"crash_test: {total} scans of {a.source} at {a.rate:g} Hz; {a.kills} kills (seed {a.seed}); work in {work}")
     while kills < a.kills and replay.poll() is None:
         time.sleep(rng.uniform(a.up_min, a.up_max))
         server.send_signal(signal.SIGKILL)
         server.wait()
+        first_kill = first_kill or time.time()
         kills += 1
         t = time.time()
         server = start_server()
@@ -106,6 +108,7 @@ def main():
                 return finish(a, work, {"error": "server exited at restart"}, False)
             time.sleep(0.05)
         restart_s.append(time.time() - t)
+        last_up = time.time()
     if kills < a.kills:
         print(f"crash_test: the stream ended after {kills} kills (use more --loops)", file=sys.stderr)
     try:
@@ -158,6 +161,8 @@ def main():
         "source": a.source,
         "seed": a.seed,
         "stream_seconds": round(stream_s, 1),
+        # From the first kill to the last restarted server's "serving" line.
+        "kill_phase_seconds": round(last_up - first_kill, 1) if first_kill and last_up else 0,
         "restart_seconds_median": round(sorted(restart_s)[len(restart_s) // 2], 2) if restart_s else 0,
         "restart_seconds_max": round(max(restart_s), 2) if restart_s else 0,
         "resends_refused_as_duplicates": robot["duplicates"] if robot else 0,
