@@ -135,6 +135,35 @@ TEST(Restart, Kitti00IsTheOfflineMapNodeForNode) {
   expectRestartIsExact(scans, "octree");
 }
 
+// A server killed before its first periodic snapshot must not replay a growing journal at every restart:
+// recovery that replayed at least snapshot_every_scans records snapshots before serving.
+TEST(Restart, RecoveryOfManyRecordsSnapshotsBeforeServing) {
+  TempDir tmp;
+  ServiceOptions o = durableOptions(tmp.path);
+  const auto scans = simScans(8);
+  journalOnly(o, scans);  // 8 records, no snapshot (the periodic one is off here)
+  o.durability.snapshot_every_scans = 5;
+  std::string after_first;
+  {
+    MapService b(o);
+    ASSERT_TRUE(b.recovery());
+    EXPECT_FALSE(b.recovery()->snapshot_lsn.has_value());
+    EXPECT_EQ(b.recovery()->records_replayed, scans.size());
+    EXPECT_EQ(b.statistics().durability.snapshots, 1u);
+    EXPECT_EQ(b.statistics().durability.snapshot_lsn, scans.size());
+    after_first = otBytes(b);
+  }
+  MapService c(o);  // a second crash: nothing left to replay
+  ASSERT_TRUE(c.recovery());
+  EXPECT_EQ(c.recovery()->snapshot_lsn, scans.size());
+  EXPECT_EQ(c.recovery()->records_replayed, 0u);
+  EXPECT_EQ(segments(o).size(), 1u);  // the replayed segment went with the snapshot
+  map::MapOptions mo = o.map;
+  EXPECT_EQ(otBytes(c), map::encodeMap(*offline(scans, mo), map::OctomapFormat::kFull));
+  EXPECT_EQ(otBytes(c), after_first);
+  EXPECT_EQ(c.lastDurableSeq("r0"), scans.size() - 1);
+}
+
 TEST(Restart, ResendsAreAppliedOnceAcrossRestarts) {
   TempDir tmp;
   const auto scans = simScans(4);
