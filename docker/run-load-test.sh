@@ -37,7 +37,7 @@ for v in robots query_clients duration domain query_points; do
 done
 [[ "$rate" =~ ^[0-9]+(\.[0-9]+)?$ ]] || { echo "run-load-test: --rate must be a number, not '$rate'" >&2; exit 2; }
 if [ $secure -eq 1 ]; then
-  echo "run-load-test: --secure needs DDS-Security, which densemap does not have yet (issue 21)" >&2
+  echo "run-load-test: --secure is not wired into the containers yet (issue 21: the programs take --security-dir; the compose files do not mount identities yet)" >&2
   exit 2
 fi
 sudo=""

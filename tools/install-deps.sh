@@ -2,7 +2,10 @@
 # Installs the Debian packages of tools/apt-packages.txt that are missing (needs root or sudo).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-mapfile -t wanted < <(grep -v '^\s*#' "$here/apt-packages.txt" | grep -v '^\s*$')
+# --tests: also tools/apt-packages-test.txt (what only the tests use, e.g. tshark for the capture test).
+lists=("$here/apt-packages.txt")
+[ "${1:-}" = "--tests" ] && lists+=("$here/apt-packages-test.txt")
+mapfile -t wanted < <(cat "${lists[@]}" | grep -v '^\s*#' | grep -v '^\s*$')
 missing=()
 for p in "${wanted[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -16,6 +16,11 @@ AdminClient::AdminClient(msg::DdsNode& node, std::string client_id)
         return probe;
       }()) {}
 
+std::string clientIdOf(const msg::DdsNode& node, const std::string& plain, const std::string& suffix) {
+  if (!node.secure()) return plain;
+  return suffix.empty() ? node.identity().name : node.identity().name + "." + suffix;
+}
+
 msg::QueryRequest boxRequest(msg::QueryKind kind, const std::array<float, 3>& lo,
                              const std::array<float, 3>& hi) {
   msg::QueryRequest rq;

@@ -242,7 +242,7 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
-    const std::string client_id = "query-" + std::to_string(::getpid());
+    const std::string client_id = client::clientIdOf(node, "query-" + std::to_string(::getpid()));
     auto noServer = [&] {
       return std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
                                 (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");

@@ -275,7 +275,8 @@ int main(int argc, char** argv) {
     std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
     for (int c = 0; c < query_clients; ++c) {
       query_clients_v.push_back(std::make_unique<client::QueryClient>(
-          node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c)));
+          node, client::clientIdOf(node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c),
+                                   "q" + std::to_string(c))));
       if (!query_clients_v.back()->waitForServer(wait))
         throw std::runtime_error("the server does not answer queries");
     }

@@ -94,7 +94,7 @@ bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastd
 
 std::int64_t nowNs() { return util::wallClockNs(); }
 
-DdsNode::DdsNode(const DdsOptions& options) {
+DdsNode::DdsNode(const DdsOptions& options, dds::DomainParticipantListener* discovery) {
   if (options.domain < 0 || options.domain > 232) {
     throw DdsError("DDS domain id " + std::to_string(options.domain) + " is out of range (0..232)");
   }
@@ -102,7 +102,8 @@ DdsNode::DdsNode(const DdsOptions& options) {
   namespace_ = options.topic_namespace;
   loadProfiles(options.profile_file);
   auto* factory = dds::DomainParticipantFactory::get_instance();
-  const std::string profile = options.loopback   ? "densemap_loopback"
+  const std::string profile = options.loopback
+                                  ? (options.udp_only ? "densemap_loopback_udp" : "densemap_loopback")
                               : options.udp_only ? "densemap_udp"
                                                  : "densemap";
   dds::DomainParticipantQos qos;
@@ -111,10 +112,19 @@ DdsNode::DdsNode(const DdsOptions& options) {
   }
   qos.name(options.name);
   configureDiscovery(options, qos);
-  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain), qos);
+  if (!options.security_dir.empty()) {
+    identity_ = checkSecurityFolder(options.security_dir);
+    applySecurity(identity_, qos);
+  }
+  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain), qos, discovery,
+                                             dds::StatusMask::none());
   if (participant_ == nullptr) {
-    throw DdsError("could not create a DDS participant on domain " + std::to_string(options.domain) +
-                   " (is /dev/shm writable and large enough?)");
+    throw DdsError(
+        "could not create a DDS participant on domain " + std::to_string(options.domain) +
+        (secure() ? " with the identity in " + identity_.dir +
+                        " (Fast DDS's [SECURITY] lines above say why: permissions that do not grant this "
+                        "domain, or an unreadable file)"
+                  : " (is /dev/shm writable and large enough?)"));
   }
   publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
@@ -129,6 +139,7 @@ DdsNode::~DdsNode() { close(); }
 void DdsNode::close() {
   std::lock_guard lock(mutex_);
   if (participant_ == nullptr) return;
+  participant_->set_listener(nullptr);
   participant_->delete_contained_entities();
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
   participant_ = nullptr;
@@ -147,8 +158,18 @@ void DdsNode::remove(dds::DataWriter* writer) {
   if (participant_ != nullptr && writer != nullptr) publisher_->delete_datawriter(writer);
 }
 
+std::string DdsNode::refusedBecause(const std::string& verb, const std::string& topic) const {
+  if (!secure()) return "";
+  return ": the identity '" + identity_.name + "' (" + identity_.dir + ") may not " + verb + " " + topic +
+         " (its permissions.xml does not grant it: this program needs another role's identity)";
+}
+
+std::string DdsNode::topicName(const std::string& base_name) const {
+  return namespace_.empty() ? base_name : namespace_ + "/" + base_name;
+}
+
 dds::Topic* DdsNode::topic(const std::string& base_name, dds::TypeSupport type) {
-  const std::string name = namespace_.empty() ? base_name : namespace_ + "/" + base_name;
+  const std::string name = topicName(base_name);
   std::lock_guard lock(mutex_);
   if (auto it = topics_.find(name); it != topics_.end()) return it->second;
   if (participant_->find_type(type.get_type_name()).empty()) {
@@ -166,7 +187,8 @@ dds::DataWriter* DdsNode::writer(dds::Topic* topic, const std::string& profile,
                                  dds::DataWriterListener* listener) {
   dds::DataWriter* w = publisher_->create_datawriter_with_profile(topic, profile, listener);
   if (w == nullptr)
-    throw DdsError("could not create a DDS writer on " + topic->get_name() + " (profile " + profile + ")");
+    throw DdsError("could not create a DDS writer on " + topic->get_name() + " (profile " + profile + ")" +
+                   refusedBecause("publish", topic->get_name()));
   return w;
 }
 
@@ -174,21 +196,26 @@ dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const std::string
                                  dds::DataReaderListener* listener) {
   dds::DataReader* r = subscriber_->create_datareader_with_profile(topic, profile, listener);
   if (r == nullptr)
-    throw DdsError("could not create a DDS reader on " + topic->get_name() + " (profile " + profile + ")");
+    throw DdsError("could not create a DDS reader on " + topic->get_name() + " (profile " + profile + ")" +
+                   refusedBecause("subscribe to", topic->get_name()));
   return r;
 }
 
 dds::DataWriter* DdsNode::writer(dds::Topic* topic, const dds::DataWriterQos& qos,
                                  dds::DataWriterListener* listener) {
   dds::DataWriter* w = publisher_->create_datawriter(topic, qos, listener);
-  if (w == nullptr) throw DdsError("could not create a DDS writer on " + topic->get_name());
+  if (w == nullptr)
+    throw DdsError("could not create a DDS writer on " + topic->get_name() +
+                   refusedBecause("publish", topic->get_name()));
   return w;
 }
 
 dds::DataReader* DdsNode::reader(dds::TopicDescription* topic, const dds::DataReaderQos& qos,
                                  dds::DataReaderListener* listener) {
   dds::DataReader* r = subscriber_->create_datareader(topic, qos, listener);
-  if (r == nullptr) throw DdsError("could not create a DDS reader on " + topic->get_name());
+  if (r == nullptr)
+    throw DdsError("could not create a DDS reader on " + topic->get_name() +
+                   refusedBecause("subscribe to", topic->get_name()));
   return r;
 }
 

@@ -9,7 +9,8 @@ cli::OptionTable ddsOptions(DdsOptions& o) {
   t.add("domain", o.domain, "DDS domain id (UDP ports 7400 + 250 * domain and up)").range(0, 232);
   t.add("loopback", o.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
   t.add("udp-only", o.udp_only,
-        "UDP only, no shared memory (containers or hosts that do not share /dev/shm)");
+        "UDP only, no shared memory (containers or hosts that do not share /dev/shm; with --loopback: UDP on "
+        "127.0.0.1)");
   t.add("dds-profile", o.profile_file,
         "Fast DDS XML profile file instead of the built-in one (empty: built in)")
       .checkedBy([&o] {
@@ -37,6 +38,15 @@ cli::OptionTable ddsOptions(DdsOptions& o) {
         "participant lease in seconds (0: Fast DDS's 20 s): peers notice a crash this late; an outage longer "
         "than this drops the peer")
       .range(0.0, 3600.0);
+  t.add(
+       "security-dir", o.security_dir,
+       "DDS-Security identity folder (tools/make-security.sh KEYSTORE, then KEYSTORE/<identity>; or an SROS2 "
+       "enclave): authenticated, access-controlled and encrypted. Empty: plain DDS, unauthenticated")
+      .checkedBy([&o] {
+        return o.security_dir.empty() || std::filesystem::is_directory(o.security_dir)
+                   ? std::string()
+                   : "no folder " + o.security_dir + " (make one with tools/make-security.sh)";
+      });
   return t;
 }
 

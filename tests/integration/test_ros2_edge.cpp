@@ -20,6 +20,7 @@
 #include "densemap/ros2/sensor_pose.h"
 #include "densemap/update/update_engine.h"
 #include "ros2_test_node.h"
+#include "security_keystore.h"
 #include "service_harness.h"
 #include "test_data.h"
 
@@ -148,6 +149,44 @@ TEST(Ros2Edge, ASimulatedRos2RobotIsServedExactly) {
   ASSERT_TRUE(server.waitForMapped(scans.size()));
   EXPECT_EQ(server.edge.counters().clouds_waited_out, 0u);
   expectSameMap(*served(server), *offlineOf(asPlacedThroughTf(scans)));
+}
+
+TEST(Ros2Edge, SecureWithEnclavesLaidOutAsSros2LaysThemOut) {
+  // The server's ROS 2 participant and a ROS 2 robot, each with an identity folder under SROS2's file names
+  // (cert.pem, key.pem, identity_ca.cert.pem, permissions_ca.cert.pem, governance.p7s, permissions.p7s).
+  constexpr int kDomain = 213;
+  Keystore keys("--robots 0 --clients 0 --ros2-robots 1");
+  Ros2EdgeOptions o = ros2Options();
+  o.security_dir = (keys / "server").string();
+  Ros2Server server(serviceOptions(kDomain), o, kDomain);
+  msg::DdsOptions d = Ros2TestNode::options(kDomain, "sim_robot");
+  d.security_dir = (keys / "ros2-robot-1").string();
+  msg::DdsNode robot(d);
+  const std::vector<io::Scan> scans = simScans(3);
+  client::Ros2PlayOptions play;
+  play.wait_s = 20;
+  EXPECT_EQ(client::playScans(scans, robot, play).clouds, scans.size());
+  ASSERT_TRUE(server.waitForMapped(scans.size()));
+  expectSameMap(*served(server), *offlineOf(asPlacedThroughTf(scans)));
+  // A ROS 2 robot may not reset the map nor publish the server's map topics.
+  const ros2::Qos qos = ros2::Qos::reliableDefault();
+  EXPECT_THROW(robot.writer(robot.topic("rq/octomap_server/resetRequest",
+                                        msg::rawCdrType("std_srvs::srv::dds_::Empty_Request_")),
+                            msg::writerQos(qos)),
+               msg::DdsError);
+  EXPECT_THROW(robot.writer(robot.topic(ros2::topicOnDds("/octomap_binary"),
+                                        msg::rawCdrType(ros2::typeOnDds(ros2::kOctomapType))),
+                            msg::writerQos(qos)),
+               msg::DdsError);
+  // A ROS 2 node without an enclave neither gets the map nor gets its clouds in.
+  Ros2TestNode plain(kDomain, "plain_node");
+  auto* binary = plain.subscriber("/octomap_binary", ros2::kOctomapType, ros2::Qos{true, false, false, 5});
+  client::Ros2PlayOptions brief;
+  brief.wait_s = 2;
+  client::playScans(simScans(2), plain.node, brief);
+  EXPECT_FALSE(Ros2TestNode::take(binary, std::chrono::milliseconds(2000)));
+  EXPECT_EQ(Ros2TestNode::matchedCount(binary), 0);
+  EXPECT_EQ(server.service.statistics().totals().received, scans.size());
 }
 
 TEST(Ros2Edge, OctomapBinaryReadsBackWithOctoMapAndProjectedMapMatchesTheBand) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <thread>
 
 #include <fmt/format.h>
@@ -14,6 +15,7 @@
 
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/reply_topic.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/realtime_priority.h"
@@ -49,6 +51,61 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
   DdsEdge& e_;
 };
 
+// Remote readers of our reply topics, as discovery finds them (DDS's thread): their writers are made before
+// those clients ask. Readers found before the reply writers existed are passed on once they do.
+class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
+ public:
+  void on_subscriber_discovery(fdds::DomainParticipant*,
+                               eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
+    std::string topic = info.info.topicName().to_string();
+    std::lock_guard lock(mutex_);
+    if (targets_.empty()) {
+      if (early_.size() < 4096) early_.push_back(std::move(topic));
+      return;
+    }
+    for (ReplyWriters* w : targets_) w->readerDiscovered(topic);
+  }
+  // A remote participant that failed authentication (another CA, expired, revoked, forged permissions).
+  void onParticipantAuthentication(fdds::DomainParticipant*,
+                                   eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT)
+      return;
+    const std::uint64_t n = ++refused_;
+    const std::int64_t now = msg::nowNs();
+    if (now - last_log_ns_.exchange(now) < 1'000'000'000) return;  // a flood stays cheap to log
+    std::ostringstream guid;
+    guid << info.guid.guidPrefix;
+    spdlog::warn(
+        "DDS-Security: refused participant {} (authentication or its permissions failed: another CA, an "
+        "expired "
+        "or revoked certificate, or permissions not signed by our CA); {} refused so far",
+        guid.str(), n);
+  }
+  std::uint64_t refused() const { return refused_; }
+
+  void ready(std::vector<ReplyWriters*> targets) {
+    std::lock_guard lock(mutex_);
+    targets_ = std::move(targets);
+    for (const std::string& t : early_)
+      for (ReplyWriters* w : targets_) w->readerDiscovered(t);
+    early_.clear();
+  }
+  void detach() {
+    std::lock_guard lock(mutex_);
+    targets_.clear();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<ReplyWriters*> targets_;
+  std::vector<std::string> early_;
+  std::atomic<std::uint64_t> refused_{0};
+  std::atomic<std::int64_t> last_log_ns_{0};
+};
+
+std::uint64_t DdsEdge::participantsRefused() const { return discovery_->refused(); }
+
 DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(service), options_(options) {
   // Threads created from here on (DDS's receive threads, the query threads) inherit the short slice; the
   // scan intake sets the default back for itself (the pipeline's threads were created before).
@@ -78,18 +135,22 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
   try {
     msg::DdsOptions dds = options_.dds;
     dds.name = service_.options().server_id;
-    node_ = std::make_unique<msg::DdsNode>(dds);
+    discovery_ = std::make_unique<DiscoveryListener>();
+    node_ = std::make_unique<msg::DdsNode>(dds, discovery_.get());
     auto* scans = node_->topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
     auto* acks = node_->topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
     auto* requests = node_->topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
-    auto* replies = node_->topic(msg::kQueryReplyTopic, msg::typeSupport<msg::QueryReplyPubSubType>());
     auto* admin_requests =
         node_->topic(msg::kAdminRequestTopic, msg::typeSupport<msg::AdminRequestPubSubType>());
-    auto* admin_replies = node_->topic(msg::kAdminReplyTopic, msg::typeSupport<msg::AdminReplyPubSubType>());
     auto* stats = node_->topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
     ack_writer_ = node_->writer(acks, msg::kMessageWriterProfile);
-    reply_writer_ = node_->writer(replies, msg::kReplyWriterProfile);
-    admin_reply_writer_ = node_->writer(admin_replies, msg::kReplyWriterProfile);
+    replies_ = std::make_unique<ReplyWriters>(*node_, msg::kQueryReplyTopic,
+                                              msg::typeSupport<msg::QueryReplyPubSubType>,
+                                              msg::kReplyWriterProfile, options_.max_clients);
+    admin_replies_ = std::make_unique<ReplyWriters>(*node_, msg::kAdminReplyTopic,
+                                                    msg::typeSupport<msg::AdminReplyPubSubType>,
+                                                    msg::kReplyWriterProfile, options_.max_clients);
+    discovery_->ready({replies_.get(), admin_replies_.get()});
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
     auto* progress = node_->topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
     progress_writer_ = node_->writer(progress, msg::progressWriterQos());
@@ -145,6 +206,7 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
                so.server_id, options_.dds.domain, options_.dds.loopback ? "loopback" : "all interfaces",
                so.map.backend, so.map.resolution, update::toString(so.update.method),
                toString(so.pipeline.overflow));
+  msg::logSecurity(*node_, "densemap topics");
 }
 
 DdsEdge::~DdsEdge() { stop(); }
@@ -264,12 +326,28 @@ void DdsEdge::takeQueries() {
 
 void DdsEdge::writeReply(msg::QueryReply& rp) {
   rp.server_id(service_.options().server_id);
-  reply_writer_->write(&rp);
+  if (!replies_->write(rp.client_id(), &rp)) refusedClient(rp.client_id(), "query");
 }
 
 void DdsEdge::writeAdminReply(msg::AdminReply& rp) {
   rp.server_id(service_.options().server_id);
-  admin_reply_writer_->write(&rp);
+  if (!admin_replies_->write(rp.client_id(), &rp)) refusedClient(rp.client_id(), "command");
+}
+
+void DdsEdge::refusedClient(const std::string& client_id, const char* what) {
+  // Counted where the service counts refused requests; logged at most once a second (a flood stays cheap).
+  if (std::string(what) == "query") {
+    service_.countRefusedQuery();
+  } else {
+    service_.countRefusedCommand();
+  }
+  const std::int64_t now = msg::nowNs();
+  if (now - last_refused_log_ns_.exchange(now) < 1'000'000'000) return;
+  const std::string why = msg::checkClientId(client_id);
+  spdlog::warn("{} from client '{}' not answered: {}", what, client_id,
+               why.empty()
+                   ? fmt::format("{} clients have reply topics already (--max-clients)", options_.max_clients)
+                   : why);
 }
 
 void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
@@ -485,6 +563,9 @@ void DdsEdge::stop() {
       t.received, t.processed, t.dropped, t.rejected, refused,
       delivered ? "all delivered"
                 : fmt::format("not all confirmed within {} s (robots gone?)", options_.ack_flush_s));
+  discovery_->detach();
+  replies_->stop();
+  admin_replies_->stop();
   node_->close();
 }
 

@@ -31,6 +31,11 @@ cli::OptionTable edgeOptions(DdsEdgeOptions& o) {
        "duplicate-check", o.duplicate_check_s,
        "at start, seconds to listen for another server on the same topics before serving (one per namespace)")
       .range(0.0, 60.0);
+  t.add(
+       "max-clients", o.max_clients,
+       "query (and admin) clients with a reply topic of their own at most; one more is refused until an idle "
+       "one's topic is removed")
+      .range(1, 100000);
   t.add("ack-flush", o.ack_flush_s,
         "at shutdown, seconds to wait until robots confirm the last scan acknowledgements")
       .range(0.0, 600.0);

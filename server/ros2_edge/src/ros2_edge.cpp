@@ -84,6 +84,7 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
   msg::DdsOptions d = dds;
   d.name = node;           // what DDS tools show; ROS 2 tools list nodes from ros_discovery_info (not sent)
   d.topic_namespace = "";  // ROS 2 names are resolved by ROS 2's rules, not densemap's namespace
+  if (!options_.security_dir.empty()) d.security_dir = options_.security_dir;
   node_ = std::make_unique<msg::DdsNode>(d);
   auto topic = [&](const std::string& ros_name, const char* ros_type) {
     return node_->topic(ros2::topicOnDds(resolve(ros_name)), msg::rawCdrType(ros2::typeOnDds(ros_type)));
@@ -163,6 +164,7 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
       options_.frames.pose_topic.empty() ? std::string("/tf and /tf_static")
                                          : resolve(options_.frames.pose_topic) + " (" + pose_type_ + ")",
       options_.latch ? "latched" : "volatile", "/" + node, "/" + node);
+  msg::logSecurity(*node_, "ROS 2 edge");
 }
 
 Ros2Edge::~Ros2Edge() { stop(); }

@@ -10,6 +10,10 @@ cli::OptionTable ros2Options(Ros2EdgeOptions& o) {
   t.add("ros2-only", o.only, "serve ROS 2 nodes only (no densemap topics)");
   t.add("node-name", o.node_name,
         "the ROS 2 node name: ~/clear_bbox and ~/reset are under it (octomap_server's)");
+  t.add("ros2-security-dir", o.security_dir,
+        "SROS2 enclave for the ROS 2 participant (e.g. KEYSTORE/enclaves/octomap_server from `ros2 security "
+        "create_enclave`); empty: --security-dir")
+      .exampleOnly();
   cli::addFrameOptions(t, o.frames);
   t.add("pose-type", o.pose_type, "type of --pose-topic").oneOf({"odometry", "pose_stamped"});
   t.add("tf-timeout", o.tf_timeout_s,

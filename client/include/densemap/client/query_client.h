@@ -23,6 +23,10 @@ class AdminClient : public RequestClient<msg::AdminRequest, msg::AdminReply, msg
   AdminClient(msg::DdsNode& node, std::string client_id);
 };
 
+/// The client id a program's client uses: in secure mode the identity's name (its permissions name that
+/// reply topic), followed by ".<suffix>" when one process runs several clients; in plain mode `plain`.
+std::string clientIdOf(const msg::DdsNode& node, const std::string& plain, const std::string& suffix = "");
+
 /// A query with the box fields set.
 msg::QueryRequest boxRequest(msg::QueryKind kind, const std::array<float, 3>& lo,
                              const std::array<float, 3>& hi);

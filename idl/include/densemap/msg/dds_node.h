@@ -12,6 +12,7 @@
 
 #include <fastdds/dds/core/policy/QosPolicies.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -20,6 +21,7 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
 #include "densemap/msg/checked_type.h"
+#include "densemap/msg/dds_security.h"
 #include "densemap/msg/topic_namespace.h"
 
 namespace densemap::msg {
@@ -55,7 +57,7 @@ struct DdsOptions {
   /// Shared memory + UDP on 127.0.0.1 only (profile "densemap_loopback") instead of every interface.
   bool loopback = false;
   /// UDP only, no shared memory (profile "densemap_udp"): between containers, whose /dev/shm and network
-  /// namespaces differ. Ignored with `loopback`.
+  /// namespaces differ. With `loopback`: UDP on 127.0.0.1 only (profile "densemap_loopback_udp").
   bool udp_only = false;
   /// An XML profile file to load instead of the built-in one (same profile names); empty: built-in.
   std::string profile_file;
@@ -73,6 +75,9 @@ struct DdsOptions {
   /// Prefixes every topic ("fleet_a" -> "fleet_a/densemap/scans"), so independent maps share a domain:
   /// one server per namespace. Empty: the plain topic names.
   std::string topic_namespace;
+  /// DDS-Security: an identity folder (tools/make-security.sh DIR/<identity>, or an SROS2 enclave). Empty:
+  /// plain DDS, unauthenticated and unencrypted.
+  std::string security_dir;
 };
 
 class DdsError : public std::runtime_error {
@@ -83,12 +88,20 @@ class DdsError : public std::runtime_error {
 class DdsNode {
  public:
   /// Throws DdsError when the profiles cannot be loaded or the participant cannot be created.
-  explicit DdsNode(const DdsOptions& options);
+  /// `discovery`: told of every remote participant, reader and writer from the start (no entity statuses);
+  /// it must outlive the node or be removed by close().
+  explicit DdsNode(const DdsOptions& options,
+                   eprosima::fastdds::dds::DomainParticipantListener* discovery = nullptr);
   ~DdsNode();
   DdsNode(const DdsNode&) = delete;
   DdsNode& operator=(const DdsNode&) = delete;
 
   eprosima::fastdds::dds::DomainParticipant& participant() { return *participant_; }
+  /// The participant's identity in secure mode; empty name in plain mode.
+  const SecurityIdentity& identity() const { return identity_; }
+  bool secure() const { return !identity_.dir.empty(); }
+  /// The topic name as it is on the wire: under the node's namespace.
+  std::string topicName(const std::string& base_name) const;
 
   /// Registers the type on first use and returns the topic (one per name), under the node's namespace.
   eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
@@ -119,7 +132,10 @@ class DdsNode {
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;  // topic creation from several threads (e.g. query clients started in parallel)
   std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+  std::string refusedBecause(const std::string& verb, const std::string& topic) const;
+
   std::string namespace_;
+  SecurityIdentity identity_;
 };
 
 /// The type support of a generated PubSubType, with a decoder that refuses malformed samples instead of

@@ -14,6 +14,7 @@
 
 #include "densemap/msg/dds_node.h"
 #include "densemap/msg/densemap.h"
+#include "densemap/server/dds_edge/reply_writers.h"
 #include "densemap/server/map_service.h"
 
 namespace densemap::server::dds_edge {
@@ -44,6 +45,9 @@ struct DdsEdgeOptions {
   /// refuses to serve (AnotherServerError, or refused() later). 0: no wait (detection continues while
   /// serving). Servers with statistics off are not seen.
   double duplicate_check_s = 1.5;
+  /// Clients with a reply topic of their own at most (query and admin each); a request from one more is
+  /// refused (counted) until an idle one's topic is removed.
+  std::size_t max_clients = 256;
 };
 
 /// Another densemap-server already serves these topics (same domain and namespace).
@@ -70,6 +74,8 @@ class DdsEdge {
   MapService& service() { return service_; }
   /// True once another server on the same topics that started earlier was seen: this one should stop.
   bool refused() const { return refused_; }
+  /// Remote participants refused by DDS-Security so far (failed authentication or permissions).
+  std::uint64_t participantsRefused() const;
   /// Other servers seen on the same topics so far.
   std::size_t otherServersSeen() const {
     std::lock_guard lock(peers_mutex_);
@@ -78,6 +84,7 @@ class DdsEdge {
 
  private:
   class Listener;
+  class DiscoveryListener;
   void ingestLoop();
   void takeQueries();
   void queryLoop();
@@ -93,19 +100,21 @@ class DdsEdge {
   void checkForAnotherServer();
   void takeStatistics();
   void writeAdminReply(msg::AdminReply& rp);
+  void refusedClient(const std::string& client_id, const char* what);
   bool isLargeQuery(const msg::QueryRequest& rq) const;
 
   MapService& service_;
   DdsEdgeOptions options_;
   std::unique_ptr<Listener> listener_;
+  std::unique_ptr<DiscoveryListener> discovery_;
   std::unique_ptr<msg::DdsNode> node_;
+  // Replies, on a topic per client (made before the readers that take requests, removed after them).
+  std::unique_ptr<ReplyWriters> replies_, admin_replies_;
   eprosima::fastdds::dds::DataReader* scan_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* query_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* admin_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* stats_reader_ = nullptr;  // other servers' statistics
   eprosima::fastdds::dds::DataWriter* ack_writer_ = nullptr;
-  eprosima::fastdds::dds::DataWriter* reply_writer_ = nullptr;
-  eprosima::fastdds::dds::DataWriter* admin_reply_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* stats_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* progress_writer_ = nullptr;
   std::uint64_t incarnation_ = 0;
@@ -114,6 +123,7 @@ class DdsEdge {
   std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;
   std::atomic<bool> running_{true};
   std::atomic<std::int64_t> large_reply_ns_{0};
+  std::atomic<std::int64_t> last_refused_log_ns_{0};
   mutable std::mutex peers_mutex_;
   std::vector<eprosima::fastdds::dds::InstanceHandle_t> other_servers_;  // their statistics writers
   std::int64_t started_ns_ = 0;                                          // the service's start

@@ -29,6 +29,9 @@ struct Ros2EdgeOptions {
   bool enabled = false;  ///< --ros2
   bool only = false;     ///< --ros2-only: no native densemap topics
   std::string node_name = "octomap_server";
+  /// DDS-Security for the ROS 2 participant: an SROS2 enclave (from the fleet's keystore, or
+  /// tools/make-security.sh's server folder). Empty: the server's --security-dir.
+  std::string security_dir;
   ros2::FrameOptions frames{"/cloud_in", "map", "base_footprint", ""};
   /// The pose topic's type: "odometry" (nav_msgs/Odometry) or "pose_stamped" (geometry_msgs/PoseStamped).
   std::string pose_type = "odometry";

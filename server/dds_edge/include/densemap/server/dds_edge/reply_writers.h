@@ -1,0 +1,71 @@
+// The server's side of the per-client reply topics (msg/reply_topic.h): one writer per client, made when
+// the client's reply reader is discovered (so the client sees its reply topic matched before it asks) or
+// at its first request, and removed when its readers are gone. Bounded: a flood of client ids cannot make
+// unbounded writers.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+
+#include "densemap/msg/dds_node.h"
+
+namespace densemap::server::dds_edge {
+
+class ReplyWriters {
+ public:
+  /// `reply_topic`: the base name (msg::kQueryReplyTopic); `type`: makes its type support.
+  ReplyWriters(msg::DdsNode& node, std::string reply_topic,
+               std::function<eprosima::fastdds::dds::TypeSupport()> type, std::string profile,
+               std::size_t max_clients);
+  ~ReplyWriters();
+  ReplyWriters(const ReplyWriters&) = delete;
+  ReplyWriters& operator=(const ReplyWriters&) = delete;
+
+  /// Writes `sample` to `client_id`'s reply topic; false (and nothing written) when the id is not a valid
+  /// client id or max_clients writers exist already.
+  bool write(const std::string& client_id, void* sample);
+
+  /// A reader on some topic was discovered (DDS's discovery thread): makes the writer soon when the topic
+  /// is one of our reply topics. Never blocks on DDS.
+  void readerDiscovered(const std::string& wire_topic);
+
+  std::size_t size() const;
+  /// Writes refused because of max_clients or an invalid id.
+  std::uint64_t refused() const;
+
+  /// Removes every writer and stops the maintenance thread (before the node closes).
+  void stop();
+
+ private:
+  struct Entry {
+    eprosima::fastdds::dds::DataWriter* writer = nullptr;
+    std::chrono::steady_clock::time_point last_used;
+  };
+  std::shared_ptr<Entry> get(const std::string& client_id);
+  void maintain();
+
+  msg::DdsNode& node_;
+  const std::string base_, wire_base_;
+  std::function<eprosima::fastdds::dds::TypeSupport()> type_;
+  const std::string profile_;
+  const std::size_t max_clients_;
+  mutable std::mutex mutex_;
+  std::mutex make_mutex_;     // held while a writer is made (not mutex_: see get())
+  std::mutex pending_mutex_;  // the only lock readerDiscovered() takes
+  std::condition_variable wake_;
+  std::map<std::string, std::shared_ptr<Entry>> writers_;  // guarded by mutex_
+  std::uint64_t refused_ = 0;                              // guarded by mutex_
+  bool running_ = true;                                    // guarded by mutex_
+  std::set<std::string> discovered_;                       // to make; guarded by pending_mutex_
+  bool stopping_ = false;                                  // guarded by pending_mutex_
+  std::thread thread_;
+};
+
+}  // namespace densemap::server::dds_edge

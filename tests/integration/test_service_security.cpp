@@ -1,0 +1,384 @@
+// DDS-Security (issue 21): a server with an identity from tools/make-security.sh lets in only participants
+// with an identity from the same CA, each as far as its role's permissions go; expired, revoked,
+// wrong-CA and tampered identities are refused; replies reach only the client that asked.
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+
+#include "densemap/client/statistics_subscriber.h"
+#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/reply_topic.h"
+#include "security_keystore.h"
+#include "service_harness.h"
+
+namespace densemap::test {
+namespace {
+
+namespace fs = std::filesystem;
+namespace fdds = eprosima::fastdds::dds;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+msg::DdsOptions ddsAs(int domain, const fs::path& identity) {
+  msg::DdsOptions d;
+  d.domain = domain;
+  d.loopback = true;
+  d.name = identity.empty() ? "plain" : identity.filename().string();
+  d.security_dir = identity.string();
+  return d;
+}
+
+ServerOptions secureServer(int domain, const fs::path& identity) {
+  ServerOptions o = serverOptions(domain);
+  o.dds.security_dir = identity.string();
+  return o;
+}
+
+std::vector<io::Scan> scans(int n) {
+  io::LidarSimulator sim(smallSimulator(n, 16, 256));
+  std::vector<io::Scan> out;
+  for (std::size_t i = 0; i < sim.size(); ++i) out.push_back(sim.read(i));
+  return out;
+}
+
+/// Counts the samples a reader of ours receives on a topic (what an eavesdropper would see).
+template <class T, class PubSub>
+class Counter : public fdds::DataReaderListener {
+ public:
+  Counter(msg::DdsNode& node, const std::string& topic) : node_(node) {
+    reader_ = node.reader(node.topic(topic, msg::typeSupport<PubSub>()), msg::kMessageReaderProfile, this);
+  }
+  ~Counter() override { node_.remove(reader_); }
+  void on_data_available(fdds::DataReader* r) override {
+    T sample;
+    fdds::SampleInfo info;
+    while (r->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) ++count_;
+    }
+  }
+  std::uint64_t count() const { return count_; }
+  int matched() const {
+    fdds::SubscriptionMatchedStatus s;
+    reader_->get_subscription_matched_status(s);
+    return s.current_count;
+  }
+
+ private:
+  msg::DdsNode& node_;
+  fdds::DataReader* reader_ = nullptr;
+  std::atomic<std::uint64_t> count_{0};
+};
+using ScanCounter = Counter<msg::Scan, msg::ScanPubSubType>;
+using StatsCounter = Counter<msg::ServerStatistics, msg::ServerStatisticsPubSubType>;
+using AckCounter = Counter<msg::ScanAck, msg::ScanAckPubSubType>;
+using ReplyCounter = Counter<msg::QueryReply, msg::QueryReplyPubSubType>;
+
+msg::QueryReply statsOf(client::QueryClient& c) {
+  msg::QueryRequest rq;
+  rq.kind(msg::QUERY_STATS);
+  return c.call(rq, 20s);
+}
+
+TEST(Security, EveryRoleDoesWhatItIsFor) {
+  Keystore keys;
+  TestServer server(secureServer(201, keys / "server"));
+  msg::DdsNode robot_node(ddsAs(201, keys / "robot-1"));
+  EXPECT_EQ(robot_node.identity().name, "robot-1");
+  client::ScanPublisher robot(robot_node);
+  ASSERT_TRUE(robot.waitForServer(30s)) << "the robot was not authenticated and matched";
+  const auto sent = scans(3);
+  for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
+  EXPECT_EQ(robot.waitForAcks({"robot-1"}, sent.size(), 60s).applied, sent.size());
+
+  msg::DdsNode client_node(ddsAs(201, keys / "client-1"));
+  client::QueryClient query(client_node, client::clientIdOf(client_node, "unused"));
+  EXPECT_EQ(query.id(), "client-1");
+  ASSERT_TRUE(query.waitForServer(30s));
+  EXPECT_EQ(statsOf(query).stats().map_version(), sent.size());
+
+  msg::DdsNode operator_node(ddsAs(201, keys / "operator"));
+  client::AdminClient admin(operator_node, client::clientIdOf(operator_node, "unused"));
+  ASSERT_TRUE(admin.waitForServer(30s));
+  const auto reset = admin.call(client::resetRequest(), 30s);
+  EXPECT_EQ(reset.status(), msg::STATUS_OK) << reset.message();
+  EXPECT_EQ(statsOf(query).stats().known_cells(), 0u);
+}
+
+TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
+  Keystore keys;
+  TestServer server(secureServer(202, keys / "server"));
+  msg::DdsNode robot_node(ddsAs(202, keys / "robot-1"));
+  client::ScanPublisher robot(robot_node);
+  msg::DdsNode client_node(ddsAs(202, keys / "client-1"));
+  client::QueryClient query(client_node, "client-1");
+  ASSERT_TRUE(robot.waitForServer(30s));
+  ASSERT_TRUE(query.waitForServer(30s));
+
+  // The intruder: plain DDS on the same domain, listening to everything the legitimate ones exchange.
+  msg::DdsNode plain(ddsAs(202, {}));
+  auto scans_seen = std::make_unique<ScanCounter>(plain, msg::kScanTopic);
+  auto stats_seen = std::make_unique<StatsCounter>(plain, msg::kStatisticsTopic);
+  auto acks_seen = std::make_unique<AckCounter>(plain, msg::kScanAckTopic);
+  auto replies_seen =
+      std::make_unique<ReplyCounter>(plain, msg::replyTopicOf(msg::kQueryReplyTopic, "client-1"));
+  // Traffic the intruder would see on a plain domain: scans, acks, replies and statistics.
+  const auto sent = scans(3);
+  for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
+  EXPECT_EQ(robot.waitForAcks({"robot-1"}, sent.size(), 60s).applied, sent.size());
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(statsOf(query).status(), msg::STATUS_OK);
+
+  std::this_thread::sleep_for(1s);
+  EXPECT_EQ(scans_seen->count(), 0u);
+  EXPECT_EQ(stats_seen->count(), 0u);
+  EXPECT_EQ(acks_seen->count(), 0u);
+  EXPECT_EQ(replies_seen->count(), 0u);
+  EXPECT_EQ(scans_seen->matched() + stats_seen->matched() + acks_seen->matched() + replies_seen->matched(),
+            0);
+
+  // Its senders on a participant of their own (the listener would hear them otherwise).
+  msg::DdsNode plain_sender(ddsAs(202, {}));
+  client::ScanPublisher intruder_robot(plain_sender);
+  client::QueryClient intruder_query(plain_sender, "intruder");
+  client::AdminClient intruder_admin(plain_sender, "intruder");
+
+  // Its own attempts: scans, a query, a reset.
+  EXPECT_FALSE(intruder_query.waitForServer(3s));
+  EXPECT_FALSE(intruder_admin.waitForServer(1s));
+  for (std::size_t i = 0; i < sent.size(); ++i) intruder_robot.publish("intruder", 100 + i, sent[i]);
+  msg::AdminRequest reset = client::resetRequest();
+  reset.client_id("client-1");  // even pretending to be someone else
+  plain_sender
+      .writer(plain_sender.topic(msg::kAdminRequestTopic, msg::typeSupport<msg::AdminRequestPubSubType>()),
+              msg::kMessageWriterProfile)
+      ->write(&reset);
+  std::this_thread::sleep_for(2s);
+  const auto after = statsOf(query);
+  EXPECT_EQ(after.stats().map_version(), sent.size()) << "the intruder's scans or reset reached the map";
+  EXPECT_GT(after.stats().known_cells(), 0u) << "the intruder's reset reached the map";
+  const auto totals = server.service.statistics().totals();
+  EXPECT_EQ(totals.received, sent.size());
+  EXPECT_EQ(server.service.statistics().commands_done, 0u);
+}
+
+TEST(Security, ARobotCannotCommandOrQueryAndAClientCannotPublishScans) {
+  Keystore keys;
+  TestServer server(secureServer(203, keys / "server"));
+  msg::DdsNode robot_node(ddsAs(203, keys / "robot-1"));
+  try {
+    client::AdminClient admin(robot_node, "robot-1");
+    ADD_FAILURE() << "a robot identity made an admin request writer";
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("may not publish"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(client::QueryClient(robot_node, "robot-1"), msg::DdsError);
+  // Nor can it read the other robots' scans.
+  EXPECT_THROW(ScanCounter(robot_node, msg::kScanTopic), msg::DdsError);
+
+  msg::DdsNode client_node(ddsAs(203, keys / "client-1"));
+  EXPECT_THROW(client::ScanPublisher publisher(client_node), msg::DdsError);
+  EXPECT_THROW(client::AdminClient(client_node, "client-1"), msg::DdsError);
+  EXPECT_EQ(server.service.statistics().totals().received, 0u);
+}
+
+TEST(Security, RepliesReachOnlyTheClientThatAsked) {
+  Keystore keys;
+  TestServer server(secureServer(204, keys / "server"));
+  msg::DdsNode one(ddsAs(204, keys / "client-1")), two(ddsAs(204, keys / "client-2"));
+  client::QueryClient q1(one, "client-1"), q2(two, "client-2");
+  ASSERT_TRUE(q1.waitForServer(30s));
+  ASSERT_TRUE(q2.waitForServer(30s));
+  // client-1 listens on its own reply topic a second time while client-2 asks: none of it arrives.
+  ReplyCounter mine(one, msg::replyTopicOf(msg::kQueryReplyTopic, "client-1"));
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(statsOf(q2).status(), msg::STATUS_OK);
+  // While its own questions do (the counter is not deaf).
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(statsOf(q1).status(), msg::STATUS_OK);
+  std::this_thread::sleep_for(500ms);
+  EXPECT_EQ(mine.count(), 3u);
+  // And client-1's permissions do not let it subscribe to client-2's replies.
+  EXPECT_THROW(ReplyCounter(one, msg::replyTopicOf(msg::kQueryReplyTopic, "client-2")), msg::DdsError);
+  // A program's several clients: <identity>.<k>.
+  client::QueryClient q1b(one, client::clientIdOf(one, "unused", "q1"));
+  EXPECT_EQ(q1b.id(), "client-1.q1");
+  ASSERT_TRUE(q1b.waitForServer(30s));
+}
+
+TEST(Security, RepliesGoToTheAskerAlsoInPlainMode) {
+  TestServer server(serverOptions(205));
+  msg::DdsNode node(ddsAs(205, {}));
+  client::QueryClient a(node, "client-a"), b(node, "client-b");
+  ASSERT_TRUE(a.waitForServer(30s));
+  ASSERT_TRUE(b.waitForServer(30s));
+  ReplyCounter a_topic(node, msg::replyTopicOf(msg::kQueryReplyTopic, "client-a"));
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(statsOf(b).status(), msg::STATUS_OK);
+  EXPECT_EQ(statsOf(a).status(), msg::STATUS_OK);
+  std::this_thread::sleep_for(500ms);
+  EXPECT_EQ(a_topic.count(), 1u);
+  // An id that cannot name a topic is refused by the client and, sent raw, counted by the server.
+  EXPECT_THROW(client::QueryClient(node, "bad/id"), std::invalid_argument);
+  const auto refused_before = server.service.statistics().queries_failed;
+  msg::QueryRequest rq;
+  rq.kind(msg::QUERY_STATS);
+  rq.client_id("bad/id");
+  node.writer(node.topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>()),
+              msg::kMessageWriterProfile)
+      ->write(&rq);
+  for (int i = 0; i < 100 && server.service.statistics().queries_failed == refused_before; ++i)
+    std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(server.service.statistics().queries_failed, refused_before + 1);
+}
+
+TEST(Security, AnIdentityFromAnotherCaIsRefused) {
+  Keystore keys;
+  const fs::path other = keys.scratch("other-ca") / "keystore";
+  makeSecurity(other, "--robots 1 --clients 1");
+  TestServer server(secureServer(206, keys / "server"));
+  // Valid in itself (its own CA signed it), so it starts; the server's CA did not sign it.
+  msg::DdsNode stranger(ddsAs(206, other / "robot-1"));
+  client::ScanPublisher robot(stranger);
+  EXPECT_FALSE(robot.waitForServer(5s));
+  const auto sent = scans(2);
+  for (std::size_t i = 0; i < sent.size(); ++i) robot.publish("robot-1", i, sent[i]);
+  std::this_thread::sleep_for(2s);
+  EXPECT_EQ(server.service.statistics().totals().received, 0u);
+  EXPECT_GE(server.edge.participantsRefused(), 1u) << "the refusal is not counted";
+}
+
+TEST(Security, AnExpiredCertificateIsRefused) {
+  Keystore keys;
+  makeSecurity(keys.dir, "--add robot robot-brief --valid-until '+6 seconds'");
+  // Joins while its certificate is valid ...
+  msg::DdsNode brief(ddsAs(207, keys / "robot-brief"));
+  client::ScanPublisher robot(brief);
+  std::this_thread::sleep_for(7s);
+  // ... and is refused by a server it meets after the certificate expired.
+  try {
+    msg::DdsNode again(ddsAs(207, keys / "robot-brief"));
+    ADD_FAILURE() << "an expired identity made a participant";
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("expired"), std::string::npos) << e.what();
+  }
+  TestServer server(secureServer(207, keys / "server"));
+  EXPECT_FALSE(robot.waitForServer(5s));
+  const auto sent = scans(2);
+  for (std::size_t i = 0; i < sent.size(); ++i) robot.publish("robot-brief", i, sent[i]);
+  std::this_thread::sleep_for(2s);
+  EXPECT_EQ(server.service.statistics().totals().received, 0u);
+  // A valid robot still gets in.
+  msg::DdsNode valid(ddsAs(207, keys / "robot-1"));
+  client::ScanPublisher ok(valid);
+  EXPECT_TRUE(ok.waitForServer(30s));
+}
+
+/// Creates a participant with Fast DDS alone (no densemap check first): does Fast DDS itself accept it?
+bool fastDdsAccepts(int domain, const fs::path& dir) {
+  msg::SecurityIdentity id;
+  id.dir = dir.string();
+  id.has_crl = fs::exists(dir / "crl.pem");
+  fdds::DomainParticipantQos qos;
+  msg::applySecurity(id, qos);
+  auto* f = fdds::DomainParticipantFactory::get_instance();
+  fdds::DomainParticipant* p = f->create_participant(domain, qos);
+  if (p == nullptr) return false;
+  f->delete_participant(p);
+  return true;
+}
+
+TEST(Security, TamperedOrForgedPermissionsAreRefused) {
+  Keystore keys;
+  // Tampered: robot-1's signed permissions edited to grant the admin topic.
+  const fs::path tampered = keys.dir / "robot-tampered";
+  fs::copy(keys / "robot-1", tampered);
+  std::string p7s = slurp(tampered / "permissions.p7s");
+  const auto at = p7s.find("<topic>densemap/scans</topic>");
+  ASSERT_NE(at, std::string::npos);
+  p7s.replace(at, std::string("<topic>densemap/scans</topic>").size(),
+              "<topic>densemap/admin/request</topic>");
+  std::ofstream(tampered / "permissions.p7s") << p7s;
+  ASSERT_TRUE(fastDdsAccepts(208, keys / "robot-1"));
+  EXPECT_FALSE(fastDdsAccepts(208, tampered)) << "Fast DDS took a permissions file changed after signing";
+  try {
+    msg::DdsNode n(ddsAs(208, tampered));
+    ADD_FAILURE() << "a tampered permissions file made a participant";
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("permissions.p7s does not verify"), std::string::npos) << e.what();
+  }
+
+  // Forged: robot-1's own certificate with permissions that grant commands, signed by a CA of its own
+  // making (which it names as its permissions CA). It starts; the server refuses it.
+  const fs::path forge = keys.scratch("forge") / "keystore";
+  makeSecurity(forge, "--robots 0 --clients 0");
+  const fs::path forged = keys.dir / "robot-forged";
+  fs::copy(keys / "robot-1", forged);
+  std::string xml = slurp(keys / "operator" / "permissions.xml");
+  for (const std::string from : {"\"operator\"", "CN=operator"}) {
+    const std::string to = from[0] == '"' ? "\"robot-1\"" : "CN=robot-1";
+    xml.replace(xml.find(from), from.size(), to);
+  }
+  std::ofstream(forged / "permissions.xml") << xml;
+  run("openssl smime -sign -in " + (forged / "permissions.xml").string() + " -text -out " +
+      (forged / "permissions.p7s").string() + " -signer " + (forge / "public/ca.cert.pem").string() +
+      " -inkey " + (forge / "private/ca.key.pem").string());
+  fs::copy_file(forge / "public/ca.cert.pem", forged / "permissions_ca.cert.pem",
+                fs::copy_options::overwrite_existing);
+  fs::copy_file(forge / "enclaves/governance.p7s", forged / "governance.p7s",
+                fs::copy_options::overwrite_existing);
+  TestServer server(secureServer(208, keys / "server"));
+  msg::DdsNode forger(ddsAs(208, forged));
+  client::AdminClient admin(forger, "operator");  // its forged permissions allow it locally
+  EXPECT_FALSE(admin.waitForServer(5s));
+  EXPECT_EQ(server.service.statistics().commands_done, 0u);
+  // The whole participant is refused, not only what the forgery added (the operator may query).
+  // (Fast DDS logs "Remote participant PermissionsCA differs from local" but tells no listener.)
+  client::QueryClient query(forger, "operator");
+  EXPECT_FALSE(query.waitForServer(3s));
+}
+
+TEST(Security, ARevokedRobotIsRefusedAfterTheServerLoadsTheNewList) {
+  Keystore keys;
+  makeSecurity(keys.dir, "--revoke robot-2");
+  ASSERT_FALSE(fs::exists(keys / "robot-2"));
+  fs::path revoked;
+  for (const auto& e : fs::directory_iterator(keys.dir / "private" / "revoked")) revoked = e.path();
+  ASSERT_FALSE(revoked.empty());
+  TestServer server(secureServer(209, keys / "server"));
+  msg::DdsNode gone(ddsAs(209, revoked));  // its own folder still has the old list
+  client::ScanPublisher robot2(gone);
+  msg::DdsNode still(ddsAs(209, keys / "robot-1"));
+  client::ScanPublisher robot1(still);
+  EXPECT_TRUE(robot1.waitForServer(30s));
+  EXPECT_FALSE(robot2.waitForServer(3s));
+  EXPECT_GE(server.edge.participantsRefused(), 1u);
+}
+
+TEST(Security, AFolderThatIsNotAnIdentityIsAClearError) {
+  Keystore keys("--robots 1 --clients 0");
+  try {
+    msg::DdsNode n(ddsAs(210, keys.scratch("empty")));
+    ADD_FAILURE();
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("lacks cert.pem, key.pem"), std::string::npos) << e.what();
+  }
+  // A key that is not the certificate's.
+  const fs::path mixed = keys.scratch("mixed") / "robot";
+  fs::copy(keys / "robot-1", mixed);
+  fs::copy_file(keys / "server" / "key.pem", mixed / "key.pem", fs::copy_options::overwrite_existing);
+  try {
+    msg::DdsNode n(ddsAs(210, mixed));
+    ADD_FAILURE();
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("is not the key of"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace densemap::test
