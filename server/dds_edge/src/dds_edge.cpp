@@ -18,6 +18,7 @@
 #include "densemap/msg/reply_topic.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
+#include "densemap/util/log_throttle.h"
 #include "densemap/util/realtime_priority.h"
 #include "densemap/util/retain_freed_memory.h"
 #include "densemap/util/scheduler_slice.h"
@@ -72,8 +73,7 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
     if (info.status != eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT)
       return;
     const std::uint64_t n = ++refused_;
-    const std::int64_t now = msg::nowNs();
-    if (now - last_log_ns_.exchange(now) < 1'000'000'000) return;  // a flood stays cheap to log
+    if (!log_.due()) return;  // a flood stays cheap to log
     std::ostringstream guid;
     guid << info.guid.guidPrefix;
     spdlog::warn(
@@ -101,7 +101,7 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
   std::vector<ReplyWriters*> targets_;
   std::vector<std::string> early_;
   std::atomic<std::uint64_t> refused_{0};
-  std::atomic<std::int64_t> last_log_ns_{0};
+  util::LogThrottle log_;
 };
 
 std::uint64_t DdsEdge::participantsRefused() const { return discovery_->refused(); }
@@ -326,23 +326,22 @@ void DdsEdge::takeQueries() {
 
 void DdsEdge::writeReply(msg::QueryReply& rp) {
   rp.server_id(service_.options().server_id);
-  if (!replies_->write(rp.client_id(), &rp)) refusedClient(rp.client_id(), "query");
+  if (!replies_->write(rp.client_id(), &rp)) {
+    service_.countRefusedQuery();
+    logRefusedClient(rp.client_id(), "query");
+  }
 }
 
 void DdsEdge::writeAdminReply(msg::AdminReply& rp) {
   rp.server_id(service_.options().server_id);
-  if (!admin_replies_->write(rp.client_id(), &rp)) refusedClient(rp.client_id(), "command");
+  if (!admin_replies_->write(rp.client_id(), &rp)) {
+    service_.countRefusedCommand();
+    logRefusedClient(rp.client_id(), "command");
+  }
 }
 
-void DdsEdge::refusedClient(const std::string& client_id, const char* what) {
-  // Counted where the service counts refused requests; logged at most once a second (a flood stays cheap).
-  if (std::string(what) == "query") {
-    service_.countRefusedQuery();
-  } else {
-    service_.countRefusedCommand();
-  }
-  const std::int64_t now = msg::nowNs();
-  if (now - last_refused_log_ns_.exchange(now) < 1'000'000'000) return;
+void DdsEdge::logRefusedClient(const std::string& client_id, const char* what) {
+  if (!refused_client_log_.due()) return;  // counted by the caller; a flood stays cheap to log
   const std::string why = msg::checkClientId(client_id);
   spdlog::warn("{} from client '{}' not answered: {}", what, client_id,
                why.empty()

@@ -16,6 +16,7 @@
 #include "densemap/msg/densemap.h"
 #include "densemap/server/dds_edge/reply_writers.h"
 #include "densemap/server/map_service.h"
+#include "densemap/util/log_throttle.h"
 
 namespace densemap::server::dds_edge {
 
@@ -100,7 +101,7 @@ class DdsEdge {
   void checkForAnotherServer();
   void takeStatistics();
   void writeAdminReply(msg::AdminReply& rp);
-  void refusedClient(const std::string& client_id, const char* what);
+  void logRefusedClient(const std::string& client_id, const char* what);
   bool isLargeQuery(const msg::QueryRequest& rq) const;
 
   MapService& service_;
@@ -123,7 +124,7 @@ class DdsEdge {
   std::condition_variable scans_ready_, queries_ready_, commands_ready_, acks_ready_, stats_wake_;
   std::atomic<bool> running_{true};
   std::atomic<std::int64_t> large_reply_ns_{0};
-  std::atomic<std::int64_t> last_refused_log_ns_{0};
+  util::LogThrottle refused_client_log_;
   mutable std::mutex peers_mutex_;
   std::vector<eprosima::fastdds::dds::InstanceHandle_t> other_servers_;  // their statistics writers
   std::int64_t started_ns_ = 0;                                          // the service's start
