@@ -14,6 +14,10 @@ given on the command line is broken (for CI), 2 on a usage or start-up error.
 
   docker/load_test.py --robots 2 --rate 10 --source sim:scans=20,beams=32,columns=512 \\
       --query-clients 4 --query-mix points,points,box,ray --duration 20 --max-dropped 0
+
+--secure runs every program with DDS-Security: native, it makes a keystore with tools/make-security.sh
+(server, robot-1..N, client-1..M) and gives each program its own identity; attached, it only records that
+the containers were secure. The report then also holds each robot's time to be authenticated and matched.
 """
 import argparse
 import glob
@@ -148,9 +152,17 @@ def run_native(a, work):
     server_bin = find_binary("densemap-server", a.build_dir)
     replay_bin = find_binary("densemap-replay", a.build_dir)
     dds = ["--domain", str(a.domain), "--loopback"]
+    identity = lambda name: []
+    if a.secure:
+        keystore = os.path.join(work, "security")
+        subprocess.run([os.path.join(ROOT, "tools", "make-security.sh"), keystore, "--robots", str(max(1, a.robots)),
+                        "--clients", str(max(1, a.query_clients)), "--days", "2"], check=True,
+                       stdout=subprocess.DEVNULL)
+        identity = lambda name: ["--security-dir", os.path.join(keystore, name)]
     log = open(os.path.join(work, "server.log"), "w")
-    server = subprocess.Popen([server_bin, *dds, "--resolution", str(a.resolution), "--statistics-period", "1",
-                               "--data-dir", os.path.join(work, "server-data"), *a.server_args.split()], stdout=log, stderr=subprocess.STDOUT)
+    server = subprocess.Popen([server_bin, *dds, *identity("server"), "--resolution", str(a.resolution),
+                               "--statistics-period", "1", "--data-dir", os.path.join(work, "server-data"),
+                               *a.server_args.split()], stdout=log, stderr=subprocess.STDOUT)
     procs = []
     sampler = Sampler(server.pid)
     try:
@@ -162,14 +174,15 @@ def run_native(a, work):
         for k in range(a.robots):
             # Robot k loops over the source on its own stretch of road (k times the offset): `scans` scans in
             # `duration` seconds.
-            cmd = [replay_bin, *dds, "--source", a.source, "--rate", str(a.rate), "--robot-prefix", "load",
+            cmd = [replay_bin, *dds, *identity(f"robot-{k + 1}"), "--source", a.source, "--rate", str(a.rate), "--robot-prefix", "load",
                    "--first-robot", str(k), "--robot-offset", a.robot_offset, "--loops", "1000000",
                    "--max-scans", str(scans), "--summary-json", os.path.join(work, f"robot-{k}.json"),
                    "--log-level", "warn"]
             procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL))
         kinds = a.query_mix.split(",")
         for c in range(a.query_clients):
-            cmd = [replay_bin, *dds, "--robots", "0", "--duration", str(a.duration), "--query-clients", "1",
+            cmd = [replay_bin, *dds, *identity(f"client-{c + 1}"), "--robots", "0", "--duration", str(a.duration),
+                   "--query-clients", "1",
                    "--query-kind", kinds[c % len(kinds)], "--query-points", str(a.query_points),
                    "--query-rate", str(a.query_rate), "--summary-json", os.path.join(work, f"query-{c}.json"),
                    "--log-level", "warn"]
@@ -256,6 +269,9 @@ def main():
     ap.add_argument("--server-match", default=None,
                     help="attach: the server is the densemap-server whose command line contains this text")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
+    ap.add_argument("--secure", action="store_true",
+                    help="DDS-Security: native, every program gets its own identity (tools/make-security.sh); "
+                         "attached, the containers were started secure (recorded in the report)")
     ap.add_argument("--json", metavar="FILE", help="write the report as JSON here")
     ap.add_argument("--max-dropped", type=int, default=None, help="bound: dropped scans over all robots")
     ap.add_argument("--max-latency-p99-ms", type=float, default=None, help="bound: publish-to-map p99")
@@ -300,7 +316,12 @@ def main():
                "latency_p99_ms": lat99, "query_kinds": kinds, "query_p99_ms": q99, "rss_growth": round(growth, 4),
                "cpu_cores_mean": round(sum(busy) / max(1, len(busy)), 2),
                "rss_mb_first": samples[0]["rss_mb"] if samples else 0,
-               "rss_mb_last": samples[-1]["rss_mb"] if samples else 0, "cpu": sampler.breakdown()}
+               "rss_mb_last": samples[-1]["rss_mb"] if samples else 0, "cpu": sampler.breakdown(),
+               "secure": a.secure,
+               # Start of a robot's process to its scan writer and ack reader matched with the server's, and
+               # to the server's first statistics seen (authentication and permissions included when secure).
+               "robot_matched_ms": sorted(round(r["matched_ms"], 1) for r in robots if "matched_ms" in r),
+               "robot_ready_ms": sorted(round(r["server_ready_ms"], 1) for r in robots if "server_ready_ms" in r)}
     for q in queries:
         q.pop("query_latencies_ms", None)  # pooled above; keeps the JSON report readable
 
@@ -319,6 +340,11 @@ def main():
         step = max(1, len(samples) // 10)
         print("server over time: " + "  ".join(f"{s['t']:.0f}s {s['cpu_cores']:.2f}c {s['rss_mb']:.0f}MB"
                                                for s in samples[::step]))
+    if summary["robot_matched_ms"]:
+        m = summary["robot_matched_ms"]
+        print(f"robots {'(secure) ' if a.secure else ''}matched with the server after {percentile(m, 0.5):.0f} ms "
+              f"(median; max {m[-1]:.0f} ms), first statistics seen after "
+              f"{percentile(summary['robot_ready_ms'], 0.5):.0f} ms")
     cpu = summary["cpu"]
     print(f"CPU: machine {cpu['machine_busy_fraction']:.0%} busy of {cpu['cores']} cores; clients "
           f"{cpu['clients_cores']:.2f} cores; server threads (cores): "
@@ -351,6 +377,7 @@ def main():
         all_q = [x for v in by_kind.values() for x in v]
         report = {
             "containers": a.containers,
+            "secure": a.secure,
             "duration_s": a.duration,
             "robots": [{"robot": (r.get("robot_ids") or ["?"])[0], "sent": r.get("scans_sent", 0),
                         "processed": r.get("scans_processed", 0), "dropped": r.get("scans_dropped", 0),

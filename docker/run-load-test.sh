@@ -3,7 +3,9 @@
 # docker-compose, debootstrap), starts a Docker engine if none is running (and stops it again at the end),
 # makes the debian:12 base images when they are missing and cannot be pulled (docker/make-base-image.sh),
 # builds the image, runs docker/compose.yaml (one server, N robots, M query clients, the runner), prints the
-# report and exits 1 when a bound is broken (any dropped scan, a client that failed).
+# report and exits 1 when a bound is broken (any dropped scan, a client that failed). --secure: every
+# container runs with DDS-Security, each with an identity of its own from a keystore made for this run by
+# tools/make-security.sh (server, robot-1..N, client-1..M; README "Security").
 #
 #   docker/run-load-test.sh [--robots N] [--query-clients M] [--duration S] [--rate HZ] [--source SRC]
 #                           [--query-points P] [--domain D] [--server-args "FLAGS"] [--json FILE] [--secure]
@@ -15,7 +17,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 robots=2 query_clients=4 duration=60 rate=10 source="sim:scans=20" query_points=1000 domain=0 json="" secure=0
 server_args=""
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; }
 while [ $# -gt 0 ]; do
   case "$1" in
     --robots) robots="$2"; shift 2 ;;
@@ -36,10 +38,6 @@ for v in robots query_clients duration domain query_points; do
   [[ "${!v}" =~ ^[0-9]+$ ]] || { echo "run-load-test: --${v//_/-} must be a whole number, not '${!v}'" >&2; exit 2; }
 done
 [[ "$rate" =~ ^[0-9]+(\.[0-9]+)?$ ]] || { echo "run-load-test: --rate must be a number, not '$rate'" >&2; exit 2; }
-if [ $secure -eq 1 ]; then
-  echo "run-load-test: --secure is not wired into the containers yet (issue 21: the programs take --security-dir; the compose files do not mount identities yet)" >&2
-  exit 2
-fi
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 log() { echo "run-load-test: $*"; }
@@ -116,12 +114,27 @@ log "image built in $(( $(date +%s) - t_build )) s: runtime densemap:latest $(si
 results="$work/results"
 mkdir -p "$results"
 chown 999 "$results" 2> /dev/null || chmod 777 "$results"
+secure_env=(SECURE=0 SECURITY="" SERVER_SECURITY_DIR="")
+if [ $secure -eq 1 ]; then
+  # A keystore for this run only. The containers get the identity folders, never the CA's key (keystore/
+  # private); the containers' user (uid 999) must read the keys.
+  "$root/tools/make-security.sh" "$work/keystore" --robots "$robots" --clients "$query_clients" --days 2 \
+    > "$work/security.log" 2>&1 || { cat "$work/security.log" >&2; echo "run-load-test: make-security.sh failed" >&2; exit 1; }
+  mkdir -p "$work/security"
+  for id in server $(seq -f "robot-%g" 1 "$robots") $(seq -f "client-%g" 1 "$query_clients"); do
+    cp -r "$work/keystore/$id" "$work/security/"
+  done
+  chown -R 999 "$work/security" 2> /dev/null || chmod -R a+rX "$work/security"
+  secure_env=(SECURE=1 SECURITY="$work/security" SERVER_SECURITY_DIR=/security/server)
+  log "secure: DDS-Security identities for the server, $robots robot(s) and $query_clients client(s) in $work/security"
+fi
+export "${secure_env[@]}"
 max_scans=$(awk -v d="$duration" -v r="$rate" 'BEGIN {printf "%d", d * r}')
 export ROBOTS=$robots QUERY_CLIENTS=$query_clients DURATION=$duration RATE=$rate SOURCE=$source DOMAIN=$domain \
   QUERY_POINTS=$query_points MAX_SCANS=$max_scans RESULTS=$results SERVER_ARGS=$server_args
 project="densemap-load-$$"
 compose_args=(-f "$root/docker/compose.yaml" -p "$project")
-log "compose (${compose[*]}): $robots robot(s) at $rate Hz from $source, $query_clients query client(s), ${duration} s"
+log "compose (${compose[*]}): $([ $secure -eq 1 ] && echo "secure, ")$robots robot(s) at $rate Hz from $source, $query_clients query client(s), ${duration} s"
 "${compose[@]}" "${compose_args[@]}" up -d --no-build --scale robot="$robots" --scale query="$query_clients" \
   > "$work/up.log" 2>&1 || { cat "$work/up.log" >&2; echo "run-load-test: compose up failed" >&2; exit 1; }
 runner="$("${compose[@]}" "${compose_args[@]}" ps -q loadtest)"

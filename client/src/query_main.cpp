@@ -81,6 +81,8 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
           {"commands_done", s.commands_done()},
           {"commands_failed", s.commands_failed()},
           {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6},
+          {"samples_undecodable", s.samples_undecodable()},
+          {"participants_refused", s.participants_refused()},
           {"journal",
            {{"on", s.journal()},
             {"failed", s.journal_failed()},
@@ -232,6 +234,10 @@ int main(int argc, char** argv) {
             s->server_id().c_str(), s->uptime_s(), static_cast<unsigned long long>(s->queries_answered()),
             static_cast<unsigned long long>(s->queries_failed()), s->publish_to_map_p50_ms(),
             s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6);
+        if (s->participants_refused() > 0) {
+          std::printf("  %llu participants refused by DDS-Security (authentication or permissions failed)\n",
+                      static_cast<unsigned long long>(s->participants_refused()));
+        }
         for (const auto& r : s->robots()) {
           std::printf("  %s: received %llu, processed %llu, dropped %llu, rejected %llu, queue %u/%u\n",
                       r.robot_id().c_str(), static_cast<unsigned long long>(r.received()),

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <thread>
@@ -231,11 +232,16 @@ int main(int argc, char** argv) {
     std::set<std::string> ids;
     for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     ScanLog scan_log(scan_log_path);
+    // From here to matched (and to the server's first statistics seen): the time a new robot needs to join,
+    // authentication and the permissions handshake included in secure mode.
+    const auto joined_from = std::chrono::steady_clock::now();
     msg::DdsNode node(dds);
-    client::ScanPublisher publisher(node);
-    if (scan_log.enabled()) {
+    // Only with robots: a query client's identity may not publish scans (secure mode refuses the writer).
+    std::optional<client::ScanPublisher> publisher;
+    if (robots > 0) publisher.emplace(node);
+    if (publisher && scan_log.enabled()) {
       // Every robot on the domain receives every acknowledgement: log only this process's robots'.
-      publisher.setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
+      publisher->setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
         if (!ids.count(a.robot_id())) return;
         scan_log.write({{"event", "ack"},
                         {"robot", a.robot_id()},
@@ -247,13 +253,18 @@ int main(int argc, char** argv) {
       });
     }
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
-    if (!publisher.waitForServer(wait)) {
+    if (publisher && !publisher->waitForServer(wait)) {
       throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
                                std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
                                " s; start it first or check --domain");
     }
+    const auto since_join = [&joined_from](std::chrono::steady_clock::time_point t) {
+      return std::chrono::duration<double, std::milli>(t - joined_from).count();
+    };
+    double matched_ms = since_join(publisher ? publisher->matchedAt().value_or(joined_from) : joined_from);
+    double server_ready_ms = since_join(std::chrono::steady_clock::now());
     // The server counts per robot id over its lifetime: report this run's part.
-    const auto before = publisher.lastStatistics();
+    const auto before = publisher ? publisher->lastStatistics() : std::nullopt;
     const client::RobotTotals base = before ? client::totalsFor(*before, ids) : client::RobotTotals{};
 
     // Query clients: point queries around robot 0's latest position, timed end to end.
@@ -277,9 +288,14 @@ int main(int argc, char** argv) {
       query_clients_v.push_back(std::make_unique<client::QueryClient>(
           node, client::clientIdOf(node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c),
                                    "q" + std::to_string(c))));
-      if (!query_clients_v.back()->waitForServer(wait))
-        throw std::runtime_error("the server does not answer queries");
+      if (!query_clients_v.back()->waitForServer(wait)) {
+        throw std::runtime_error("no densemap-server answers queries on DDS domain " +
+                                 std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
+                                 " s; start it first or check --domain (secure: an identity whose role may "
+                                 "query, e.g. client-1)");
+      }
     }
+    if (!publisher) matched_ms = server_ready_ms = since_join(std::chrono::steady_clock::now());
     for (int c = 0; c < query_clients; ++c) {
       query_threads.emplace_back([&, c] {
         std::mt19937 rng(static_cast<unsigned>(c + 1));
@@ -366,7 +382,7 @@ int main(int argc, char** argv) {
           }
           return scan;
         };
-        client::ScanResender resender(publisher, id, scan_of);
+        client::ScanResender resender(*publisher, id, scan_of);
         // The server says which of this robot's scans it has on disk already: a robot that restarts goes on
         // numbering after them (and sends its per-robot count from there), instead of repeating them.
         // Every server publishes its progress as soon as its scan reader exists, but the progress topic
@@ -411,18 +427,21 @@ int main(int argc, char** argv) {
     for (auto& t : robot_threads) t.join();
     if (robots == 0) std::this_thread::sleep_for(std::chrono::duration<double>(duration_s));
     const double publish_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-    const client::AckCounts acks = publisher.waitForAcks(ids, sent, std::chrono::milliseconds(1000));
+    const client::AckCounts acks =
+        publisher ? publisher->waitForAcks(ids, sent, std::chrono::milliseconds(1000)) : client::AckCounts{};
     replaying = false;
     for (auto& t : query_threads) t.join();
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
     // The server's own count, from its statistics (published once a second).
-    const auto stats = publisher.waitForStatistics(ids, sent + base.processed + base.dropped + base.rejected,
-                                                   std::chrono::milliseconds(3000));
+    const auto stats =
+        publisher ? publisher->waitForStatistics(ids, sent + base.processed + base.dropped + base.rejected,
+                                                 std::chrono::milliseconds(3000))
+                  : std::nullopt;
     client::RobotTotals server = stats ? client::totalsFor(*stats, ids) : client::RobotTotals{};
     server.processed -= std::min(server.processed, base.processed);
     server.dropped -= std::min(server.dropped, base.dropped);
     server.rejected -= std::min(server.rejected, base.rejected);
-    const auto lat = publisher.latenciesMs(ids);
+    const auto lat = publisher ? publisher->latenciesMs(ids) : std::vector<double>{};
 
     nlohmann::json j = {{"source", described},
                         {"robots", robots},
@@ -449,7 +468,10 @@ int main(int argc, char** argv) {
                         {"latencies_ms", lat},  // raw, so a load test can pool robots
                         {"publish_seconds", publish_s},
                         {"total_seconds", total_s},
-                        {"server_statistics", stats.has_value()}};
+                        {"server_statistics", stats.has_value()},
+                        {"secure", node.secure()},
+                        {"matched_ms", matched_ms},
+                        {"server_ready_ms", server_ready_ms}};
     if (stats) {
       for (const auto& st : stats->stages()) {
         j["server_stage_" + st.name() + "_p50_ms"] = st.latency_p50_ms();

@@ -101,12 +101,11 @@ bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
   // scan sent then would be lost. A statistics message from the server shows it has discovered us (or,
   // with statistics switched off, a grace period after matching does).
   const auto deadline = std::chrono::steady_clock::now() + timeout;
-  std::optional<std::chrono::steady_clock::time_point> matched_at;
   while (std::chrono::steady_clock::now() < deadline) {
     if (msg::matchedBothWays(*writer_, *ack_reader_)) {
-      if (!matched_at) matched_at = std::chrono::steady_clock::now();
+      if (!matched_at_) matched_at_ = std::chrono::steady_clock::now();
       if (lastStatistics() ||
-          std::chrono::steady_clock::now() - *matched_at > std::chrono::milliseconds(2500)) {
+          std::chrono::steady_clock::now() - *matched_at_ > std::chrono::milliseconds(2500)) {
         return true;
       }
     }

@@ -5,6 +5,12 @@ Every program runs in its host's network namespace (`ip netns exec`) with --udp-
 log (--scan-log: every scan sent, refused and acknowledged, with times) that survives a SIGKILL; the
 server's own per-robot counts come from its statistics topic (`densemap-query statistics`). Times are the
 system clock of this one machine, the clock the programs stamp scans and acknowledgements with.
+
+--secure: every program runs with DDS-Security, each with an identity of its own from a keystore made by
+tools/make-security.sh (server, robot-1 on host ra, robot-2 on rb, client-1 for the query client, operator
+for the statistics and progress read from host q). The multicast scenario first checks, across the network,
+that a participant without an identity gets no statistics and that a robot whose identity another CA signed
+finds no server and is counted as refused.
 """
 import argparse
 import json
@@ -49,19 +55,26 @@ class Run:
         os.makedirs(self.dir, exist_ok=True)
         self.dds = ["--domain", str(a.domain), "--udp-only", *a.dds_args.split()]
 
+    def identity(self, name):
+        """--security-dir for identity `name` of the run's keystore (nothing in plain mode)."""
+        return ["--security-dir", os.path.join(self.a.keystore, name)] if self.a.keystore else []
+
     def spawn(self, host, cmd, log_name):
         log = open(os.path.join(self.dir, log_name), "w")
         return subprocess.Popen(["ip", "netns", "exec", self.net.ns(host), *cmd], stdout=log,
                                 stderr=subprocess.STDOUT)
 
     def server(self, tag):
-        cmd = [os.path.join(self.a.build, "server", "densemap-server"), *self.dds, "--statistics-period", "1",
+        cmd = [os.path.join(self.a.build, "server", "densemap-server"), *self.dds, *self.identity("server"),
+               "--statistics-period", "1",
                "--server-id", f"cross-host-{tag}", "--data-dir", os.path.join(self.dir, "data"),
                *self.discovery.get("srv", [])]
         return self.spawn("srv", cmd, f"server-{tag}.log")
 
-    def robot(self, host, tag, scans, extra=None, wait_s=20):
-        cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, "--source", self.a.source,
+    def robot(self, host, tag, scans, extra=None, wait_s=20, security=None):
+        """A robot on `host`; in secure mode robot-1 (ra) or robot-2 (rb), or the flags `security`."""
+        ident = self.identity({"ra": "robot-1", "rb": "robot-2"}.get(host, "robot-1")) if security is None else security
+        cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, *ident, "--source", self.a.source,
                "--rate", str(RATE), "--loops", "1000000", "--max-scans", str(scans), "--robot-prefix",
                f"robot-{host}", "--scan-log", os.path.join(self.dir, f"scans-{tag}.jsonl"), "--summary-json",
                os.path.join(self.dir, f"summary-{tag}.json"), "--wait", str(wait_s), "--log-level", "warn",
@@ -69,8 +82,8 @@ class Run:
         return self.spawn(host, cmd, f"robot-{tag}.log")
 
     def query_client(self, seconds):
-        cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, "--robots", "0",
-               "--duration", str(seconds), "--query-clients", "1", "--query-points", "1000", "--query-rate",
+        cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, *self.identity("client-1"),
+               "--robots", "0", "--duration", str(seconds), "--query-clients", "1", "--query-points", "1000", "--query-rate",
                "20", "--summary-json", os.path.join(self.dir, "summary-query.json"), "--wait", "20",
                "--log-level", "warn", *self.discovery.get("robot", [])]
         return self.spawn("q", cmd, "query.log")
@@ -81,10 +94,12 @@ class Run:
         scans = int(seconds * RATE)
         return t0, t0_ns, self.robot("ra", "ra", scans), self.robot("rb", "rb", scans), self.query_client(seconds)
 
-    def query(self, what):
-        """densemap-query WHAT --json, asked from the query client's host (None when it got no answer)."""
+    def query(self, what, security=None, timeout_s=15):
+        """densemap-query WHAT --json, asked from the query client's host (None when it got no answer), as the
+        operator in secure mode (or with `security`, the flags of another identity; [] for none)."""
+        sec = self.identity("operator") if security is None else security
         cmd = ["ip", "netns", "exec", self.net.ns("q"), os.path.join(self.a.build, "client", "densemap-query"),
-               *self.dds, *self.discovery.get("robot", []), "--timeout", "15", "--json", what]
+               *self.dds, *sec, *self.discovery.get("robot", []), "--timeout", str(timeout_s), "--json", what]
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             return None
@@ -185,6 +200,29 @@ def wait_for_server(run, seconds):
     return False
 
 
+def check_intruders(a, run, report, failures):
+    """Secure mode: from host q, a participant without an identity and a robot of another CA get nothing."""
+    plain = run.query("statistics", security=[], timeout_s=6)
+    foreign = run.robot("q", "foreign", 1, wait_s=8, extra=[],
+                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-1")])
+    try:
+        foreign.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        foreign.kill()
+        foreign.wait()
+    stats = run.statistics()
+    refused = None if stats is None else stats.get("participants_refused")
+    report["security"] = {"unauthenticated_got_statistics": plain is not None,
+                          "other_ca_robot_found_server": foreign.returncode == 0,
+                          "participants_refused": refused}
+    if plain is not None:
+        failures.append("secure: a participant without an identity read the server's statistics")
+    if foreign.returncode == 0:
+        failures.append("secure: a robot whose certificate another CA signed found the server")
+    if not refused:
+        failures.append(f"secure: the server counted no refused participant (participants_refused {refused})")
+
+
 def scenario_multicast(a, net, report, failures):
     """Multicast discovery; faults (a) link down 5 s and (b) robot process killed and restarted."""
     run = Run(a, net, "multicast", {})
@@ -194,6 +232,8 @@ def scenario_multicast(a, net, report, failures):
         failures.append("multicast: the server's statistics never reached the query host")
         stop(server)
         return
+    if a.keystore:
+        check_intruders(a, run, report, failures)
     t0, t0_ns, ra, rb, query = run.start_stream(duration)
     # (a) robot A's link down for 5 s, mid-stream.
     sleep_until(t0, a.fault_at)
@@ -361,19 +401,40 @@ def main():
     ap.add_argument("--fault-at", type=float, default=10.0, help="first fault, seconds into the stream")
     ap.add_argument("--dds-args", default="", help="more DDS flags for every program (e.g. --dds-lease-s 6)")
     ap.add_argument("--keep-logs", help="copy the programs' logs and scan logs into this directory")
+    ap.add_argument("--secure", action="store_true", help="every program with DDS-Security (see above)")
+    ap.add_argument("--scenarios", default="multicast,peers", help="which scenarios, in order (default both)")
     a = ap.parse_args()
+    a.keystore = a.foreign_keystore = None
+    if a.secure:
+        make = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "tools",
+                            "make-security.sh")
+        a.keystore, a.foreign_keystore = os.path.join(a.work, "keystore"), os.path.join(a.work, "foreign-ca")
+        subprocess.run([make, a.keystore, "--robots", "2", "--clients", "1", "--days", "2"], check=True,
+                       stdout=subprocess.DEVNULL)
+        subprocess.run([make, a.foreign_keystore, "--robots", "1", "--clients", "0", "--days", "2"], check=True,
+                       stdout=subprocess.DEVNULL)
     net = Net(a.ns_prefix, a.hosts)
     report = {"transport": "UDPv4 only (--udp-only), each program in its own network namespace, veth + bridge",
+              "secure": a.secure,
               "source": a.source, "dds_args": a.dds_args, "rate_hz": RATE, "robots": 2, "query_clients": 1, "discovery": {},
               "faults": []}
     failures = []
     t = time.time()
-    scenario_multicast(a, net, report, failures)
-    scenario_initial_peers(a, net, report, failures)
+    scenarios = {"multicast": scenario_multicast, "peers": scenario_initial_peers}
+    for name in a.scenarios.split(","):
+        if name not in scenarios:
+            ap.error(f"--scenarios: unknown scenario '{name}' (multicast, peers)")
+        scenarios[name](a, net, report, failures)
     report["duration_s"] = round(time.time() - t, 1)
     report["failures"] = failures
 
-    print(f"cross-host ({report['transport']}), {a.source} at {RATE:.0f} Hz x 2 robots + 1 query client")
+    print(f"cross-host ({report['transport']}{', DDS-Security' if a.secure else ''}), {a.source} at {RATE:.0f} Hz"
+          " x 2 robots + 1 query client")
+    if "security" in report:
+        sec = report["security"]
+        print(f"  secure: no identity read statistics: {sec['unauthenticated_got_statistics']}; robot of another CA "
+              f"found the server: {sec['other_ca_robot_found_server']}; server counted "
+              f"{sec['participants_refused']} refused participant(s)")
     fmt = lambda v, p=1: "-" if v is None else f"{v:.{p}f}"
     print(f"  publish-to-map over UDP (multicast discovery, before faults): p50 {fmt(report.get('latency_p50_ms'))}"
           f" ms, p99 {fmt(report.get('latency_p99_ms'))} ms; 1,000-point queries p50 "

@@ -11,9 +11,12 @@
 # Prints a report and writes it as JSON (--json FILE); exits 1 when a check fails: with the default `wait`
 # policy nothing a robot saw acknowledged in (a) and (b) may be missing from the map, and robots must resume
 # after every fault without being restarted themselves. Everything it creates (namespaces, links, processes,
-# files) is removed when it exits, also when it fails or is interrupted.
+# files) is removed when it exits, also when it fails or is interrupted. --secure runs every program with
+# DDS-Security, each with an identity of its own, and first checks across the network that a participant
+# without an identity and a robot of another CA get nothing (README "Security").
 #
 #   sudo tests/load/cross_host.sh [--json FILE] [--build DIR] [--source SRC] [--domain N] [--keep-logs DIR]
+#                                 [--secure] [--scenarios multicast,peers] [--stream-s S]
 #
 # Needs root (ip netns) and a build (./tools/build.sh). Addresses: 10.213.77.0/24, only inside the namespaces.
 set -euo pipefail
@@ -23,7 +26,7 @@ args=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --build) build="$2"; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) args+=("$1"); shift ;;
   esac
 done

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -72,14 +73,21 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
                                    eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override {
     if (info.status != eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT)
       return;
-    const std::uint64_t n = ++refused_;
-    if (!log_.due()) return;  // a flood stays cheap to log
     std::ostringstream guid;
     guid << info.guid.guidPrefix;
+    // Fast DDS retries the handshake every second or so: count each participant once (past the bound, a
+    // flood of new ones counts every attempt, never less than there were).
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(mutex_);
+      if (refused_guids_.size() >= kMaxRememberedRefusals || refused_guids_.insert(guid.str()).second) {
+        n = ++refused_;
+      }
+    }
+    if (n == 0 || !log_.due()) return;  // a flood stays cheap to log
     spdlog::warn(
         "DDS-Security: refused participant {} (authentication or its permissions failed: another CA, an "
-        "expired "
-        "or revoked certificate, or permissions not signed by our CA); {} refused so far",
+        "expired or revoked certificate, or permissions not signed by our CA); {} refused so far",
         guid.str(), n);
   }
   std::uint64_t refused() const { return refused_; }
@@ -100,11 +108,19 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
   std::mutex mutex_;
   std::vector<ReplyWriters*> targets_;
   std::vector<std::string> early_;
+  static constexpr std::size_t kMaxRememberedRefusals = 65536;
+  std::set<std::string> refused_guids_;  // guarded by mutex_
   std::atomic<std::uint64_t> refused_{0};
   util::LogThrottle log_;
 };
 
 std::uint64_t DdsEdge::participantsRefused() const { return discovery_->refused(); }
+
+msg::ServerStatistics DdsEdge::statisticsMessage(const ServiceStatistics& s) const {
+  msg::ServerStatistics m = toWire(s);
+  m.participants_refused(participantsRefused());  // the edge's own count: the service never sees DDS peers
+  return m;
+}
 
 DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(service), options_(options) {
   // Threads created from here on (DDS's receive threads, the query threads) inherit the short slice; the
@@ -219,7 +235,7 @@ void DdsEdge::checkForAnotherServer() {
       std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                              std::chrono::duration<double>(options_.duplicate_check_s));
   while (std::chrono::steady_clock::now() < end) {
-    msg::ServerStatistics m = toWire(service_.statistics());
+    msg::ServerStatistics m = statisticsMessage(service_.statistics());
     stats_writer_->write(&m);
     std::this_thread::sleep_for(200ms);
   }
@@ -486,7 +502,7 @@ void DdsEdge::statisticsLoop() {
       util::returnFreedMemory();  // the large replies have left the history
     }
     const ServiceStatistics s = service_.statistics();
-    msg::ServerStatistics m = toWire(s);
+    msg::ServerStatistics m = statisticsMessage(s);
     stats_writer_->write(&m);
     const RobotCounters t = s.totals();
     const std::uint64_t activity = t.processed + t.rejected + t.dropped + s.queries_answered +
@@ -536,7 +552,7 @@ void DdsEdge::stop() {
   const std::size_t refused = scan_reader_ != nullptr ? refuseScansStillInDds() : 0;
   if (stats_thread_.joinable()) stats_thread_.join();
   if (stats_writer_ != nullptr) {
-    msg::ServerStatistics m = toWire(service_.statistics());
+    msg::ServerStatistics m = statisticsMessage(service_.statistics());
     stats_writer_->write(&m);
   }
   {

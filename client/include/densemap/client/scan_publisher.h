@@ -39,6 +39,9 @@ class ScanPublisher {
 
   /// Waits until a server subscribes to scans (and publishes acks); false on timeout.
   bool waitForServer(std::chrono::milliseconds timeout);
+  /// When waitForServer first saw the writer and the acknowledgement reader matched both ways (in secure
+  /// mode: after the server authenticated this participant and granted its permissions).
+  std::optional<std::chrono::steady_clock::time_point> matchedAt() const { return matched_at_; }
 
   /// Publishes one scan for `robot_id`: sensor-frame points (or world-frame points when the scan is in the
   /// world frame, sent with frame_id "world"), the pose as position + unit quaternion, the LiDAR geometry.
@@ -86,6 +89,7 @@ class ScanPublisher {
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
   std::function<void(const msg::ScanAck&)> ack_observer_;
   StatisticsSubscriber statistics_;
+  std::optional<std::chrono::steady_clock::time_point> matched_at_;
 };
 
 /// The DDS message for a scan: sensor-frame points (or world-frame points with frame_id "world"), the pose

@@ -102,6 +102,8 @@ class DdsEdge {
   void takeStatistics();
   void writeAdminReply(msg::AdminReply& rp);
   void logRefusedClient(const std::string& client_id, const char* what);
+  /// The service's statistics on the wire, with what only the edge counts (refused participants).
+  msg::ServerStatistics statisticsMessage(const ServiceStatistics& s) const;
   bool isLargeQuery(const msg::QueryRequest& rq) const;
 
   MapService& service_;
