@@ -174,7 +174,9 @@ def run_native(a, work):
         for k in range(a.robots):
             # Robot k loops over the source on its own stretch of road (k times the offset): `scans` scans in
             # `duration` seconds.
-            cmd = [replay_bin, *dds, *identity(f"robot-{k + 1}"), "--source", a.source, "--rate", str(a.rate), "--robot-prefix", "load",
+            cmd = [replay_bin, *dds, *identity(f"robot-{k + 1}"), "--source", a.source, "--rate", str(a.rate),
+                   # secure: a robot identity sends only as its own name and NAME-<k>
+                   "--robot-prefix", f"robot-{k + 1}" if a.secure else "load",
                    "--first-robot", str(k), "--robot-offset", a.robot_offset, "--loops", "1000000",
                    "--max-scans", str(scans), "--summary-json", os.path.join(work, f"robot-{k}.json"),
                    "--log-level", "warn"]

@@ -187,18 +187,21 @@ rule() { # allow_rule|deny_rule, then "publish: a b" "subscribe: c d"
 }
 
 # What each role may publish and subscribe to. Replies go to a topic per client (.../reply/<name>, or
-# .../reply/<name>.<k> for a program's k-th client), which only that identity may read. The ROS 2 edge's topics are ROS 2's (rt/ topics, rq/ and rr/ services).
+# .../reply/<name>.<k> for a program's k-th client), which only that identity may read. A robot's scans,
+# acknowledgements and progress go on topics of its own (.../scans/<name>, or .../scans/<name>-<k> for a
+# program publishing for several robots), which only that identity may write or read: the server checks each
+# scan's robot id against its topic, so a robot cannot send as another or read another's acknowledgements. The ROS 2 edge's topics are ROS 2's (rt/ topics, rq/ and rr/ services).
 permission_rules() { # role name
   local role="$1" name="$2"
   case "$role" in
     server)
       rule allow_rule \
-        "publish: densemap/scan_acks densemap/query/reply/* densemap/admin/reply/* densemap/statistics densemap/robot_progress rt/* rr/* ros_discovery_info" \
-        "subscribe: densemap/scans densemap/query/request densemap/admin/request densemap/statistics rt/* rq/* ros_discovery_info"
+        "publish: densemap/scan_acks/* densemap/query/reply/* densemap/admin/reply/* densemap/statistics densemap/robot_progress densemap/robot_progress/* rt/* rr/* ros_discovery_info" \
+        "subscribe: densemap/scans/* densemap/query/request densemap/admin/request densemap/statistics rt/* rq/* ros_discovery_info"
       ;;
     robot)
-      rule allow_rule "publish: densemap/scans" \
-        "subscribe: densemap/scan_acks densemap/robot_progress densemap/statistics"
+      rule allow_rule "publish: densemap/scans/$name densemap/scans/$name-*" \
+        "subscribe: densemap/scan_acks/$name densemap/scan_acks/$name-* densemap/robot_progress/$name densemap/robot_progress/$name-* densemap/statistics"
       ;;
     client)
       rule allow_rule "publish: densemap/query/request" \

@@ -77,7 +77,7 @@ Run runNative(const std::vector<io::Scan>& scans, int domain, bool fast, double 
   msg::DdsOptions d = eo.dds;
   d.name = "bench-robot";
   msg::DdsNode node(d);
-  client::ScanPublisher pub(node);
+  client::ScanPublisher pub(node, {"robot-0"});
   if (!pub.waitForServer(std::chrono::seconds(20))) throw std::runtime_error("the native edge did not match");
   MappedWatch watch(service, scans.size(), 60);
   const auto t0 = Clock::now();

@@ -14,6 +14,7 @@
 #include <set>
 #include <thread>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -88,7 +89,12 @@ int main(int argc, char** argv) {
                  "robots publishing the source at once (0: only run --query-clients for --duration)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
-  app.add_option("--robot-prefix", prefix, "robot ids are PREFIX-0, PREFIX-1, ...")->capture_default_str();
+  auto* prefix_option =
+      app.add_option(
+             "--robot-prefix", prefix,
+             "robot ids are PREFIX-0, PREFIX-1, ... (secure mode: the identity's name unless given; a "
+             "robot identity may send only as NAME and NAME-<k>)")
+          ->capture_default_str();
   app.add_option("--robot-offset", offset_text, "robot k's scans are shifted by k times this x,y,z (metres)")
       ->capture_default_str();
   app.add_option("--rate", rate, "scans per second per robot (0: as fast as the server takes them)")
@@ -228,19 +234,31 @@ int main(int argc, char** argv) {
           "normal priority. To allow it: {}",
           realtime_priority, util::realtimePriorityHint());
     }
-    // Before the publisher: its acknowledgement observer uses both until the publisher is gone.
-    std::set<std::string> ids;
-    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     ScanLog scan_log(scan_log_path);
     // From here to matched (and to the server's first statistics seen): the time a new robot needs to join,
     // authentication and the permissions handshake included in secure mode.
     const auto joined_from = std::chrono::steady_clock::now();
     msg::DdsNode node(dds);
+    // A robot identity's permissions name its scan topics: NAME and NAME-<k> (tools/make-security.sh).
+    if (node.secure() && prefix_option->count() == 0) prefix = node.identity().name;
+    // Before the publisher: its acknowledgement observer uses both until the publisher is gone.
+    std::set<std::string> ids;
+    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     // Only with robots: a query client's identity may not publish scans (secure mode refuses the writer).
     std::optional<client::ScanPublisher> publisher;
-    if (robots > 0) publisher.emplace(node);
+    if (robots > 0) {
+      try {
+        publisher.emplace(node, std::vector<std::string>(ids.begin(), ids.end()));
+      } catch (const msg::DdsError& e) {
+        if (!node.secure()) throw;
+        throw std::runtime_error(fmt::format(
+            "{}. In secure mode identity '{}' publishes scans only as robot ids '{}' and '{}-<k>': leave out "
+            "--robot-prefix (it defaults to the identity's name), or use a robot identity",
+            e.what(), node.identity().name, node.identity().name, node.identity().name));
+      }
+    }
     if (publisher && scan_log.enabled()) {
-      // Every robot on the domain receives every acknowledgement: log only this process's robots'.
+      // Acknowledgements come on this process's robots' own topics; the check keeps the log to them anyway.
       publisher->setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
         if (!ids.count(a.robot_id())) return;
         scan_log.write({{"event", "ack"},

@@ -1,11 +1,13 @@
 #include "densemap/client/scan_publisher.h"
 
+#include <stdexcept>
 #include <thread>
 
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/peer_topic.h"
 
 namespace densemap::client {
 
@@ -13,10 +15,11 @@ namespace dds = eprosima::fastdds::dds;
 
 class ScanPublisher::Listener : public dds::DataReaderListener {
  public:
-  explicit Listener(ScanPublisher& p) : p_(p) {}
+  Listener(ScanPublisher& p, const Robot& robot) : p_(p), robot_(robot) {}
+  // Attached only once the robot's progress reader is set.
   void on_data_available(dds::DataReader* r) override {
-    if (r == p_.progress_reader_) {
-      p_.onProgress(r);
+    if (r == robot_.progress_reader) {
+      p_.onProgress(robot_.id, r);
     } else {
       p_.onAcks(r);
     }
@@ -24,23 +27,58 @@ class ScanPublisher::Listener : public dds::DataReaderListener {
 
  private:
   ScanPublisher& p_;
+  const Robot& robot_;
 };
 
-ScanPublisher::ScanPublisher(msg::DdsNode& node) : node_(node), statistics_(node) {
-  listener_ = std::make_unique<Listener>(*this);
-  auto* scans = node_.topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
-  auto* acks = node_.topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
-  writer_ = node_.writer(scans, msg::kScanWriterProfile);
-  auto* progress = node_.topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
-  progress_reader_ = node_.reader(progress, msg::progressReaderQos(), nullptr);
-  progress_reader_->set_listener(listener_.get());
-  onProgress(progress_reader_);  // a sample that came before the listener
-  ack_reader_ = node_.reader(acks, msg::kMessageReaderProfile, listener_.get());
+ScanPublisher::ScanPublisher(msg::DdsNode& node, const std::vector<std::string>& robot_ids)
+    : node_(node), statistics_(node) {
+  for (const std::string& id : robot_ids) robot(id);
 }
 
-void ScanPublisher::onProgress(dds::DataReader* reader) {
-  // Taken without our mutex: DDS may hold the reader's own lock while it calls the listener, and the
-  // constructor calls this too (a sample that came before the listener), so holding ours while taking
+std::unique_ptr<ScanPublisher::Robot> ScanPublisher::makeRobot(const std::string& robot_id) {
+  if (const std::string why = msg::checkPeerId(robot_id, "robot"); !why.empty())
+    throw std::invalid_argument(why + " (it names the robot's topics, densemap/scans/<robot id>)");
+  auto r = std::make_unique<Robot>();
+  r->id = robot_id;
+  r->listener = std::make_unique<Listener>(*this, *r);
+  // Each made before the next, so what throws (a permission refused) leaves nothing half made behind.
+  struct Undo {
+    msg::DdsNode& node;
+    Robot& r;
+    bool done = false;
+    ~Undo() {
+      if (done) return;
+      if (r.ack_reader) node.remove(r.ack_reader);
+      if (r.progress_reader) node.remove(r.progress_reader);
+      if (r.writer) node.remove(r.writer);
+    }
+  } undo{node_, *r};
+  auto* scans =
+      node_.topic(msg::peerTopicOf(msg::kScanTopic, robot_id), msg::typeSupport<msg::ScanPubSubType>());
+  r->writer = node_.writer(scans, msg::kScanWriterProfile);
+  auto* progress = node_.topic(msg::peerTopicOf(msg::kRobotProgressTopic, robot_id),
+                               msg::typeSupport<msg::RobotProgressPubSubType>());
+  r->progress_reader = node_.reader(progress, msg::progressReaderQos(), nullptr);
+  r->progress_reader->set_listener(r->listener.get());
+  onProgress(robot_id, r->progress_reader);  // a sample that came before the listener
+  auto* acks =
+      node_.topic(msg::peerTopicOf(msg::kScanAckTopic, robot_id), msg::typeSupport<msg::ScanAckPubSubType>());
+  r->ack_reader = node_.reader(acks, msg::kMessageReaderProfile, r->listener.get());
+  undo.done = true;
+  return r;
+}
+
+ScanPublisher::Robot& ScanPublisher::robot(const std::string& robot_id, bool* made) {
+  std::lock_guard lock(robots_mutex_);
+  auto it = robots_.find(robot_id);
+  if (made) *made = it == robots_.end();
+  if (it == robots_.end()) it = robots_.emplace(robot_id, makeRobot(robot_id)).first;
+  return *it->second;
+}
+
+void ScanPublisher::onProgress(const std::string& robot_id, dds::DataReader* reader) {
+  // Taken without our mutex: DDS may hold the reader's own lock while it calls the listener, and
+  // makeRobot() calls this too (a sample that came before the listener), so holding ours while taking
   // would invert the two locks.
   std::optional<msg::RobotProgress> latest;
   msg::RobotProgress p;
@@ -51,23 +89,30 @@ void ScanPublisher::onProgress(dds::DataReader* reader) {
   if (!latest) return;
   {
     std::lock_guard lock(mutex_);
-    progress_ = std::move(latest);
+    progress_[robot_id] = std::move(*latest);
   }
   changed_.notify_all();
 }
 
-std::optional<msg::RobotProgress> ScanPublisher::progress() const {
+std::optional<msg::RobotProgress> ScanPublisher::progress(const std::string& robot_id) const {
   std::lock_guard lock(mutex_);
-  return progress_;
+  auto it = progress_.find(robot_id);
+  if (it == progress_.end()) return std::nullopt;
+  return it->second;
 }
 
 std::optional<msg::RobotProgress> ScanPublisher::waitForProgress(
-    std::chrono::milliseconds timeout, std::optional<std::uint64_t> not_incarnation) {
+    const std::string& robot_id, std::chrono::milliseconds timeout,
+    std::optional<std::uint64_t> not_incarnation) {
   std::unique_lock lock(mutex_);
-  changed_.wait_for(lock, timeout, [&] {
-    return progress_ && (!not_incarnation || progress_->incarnation() != *not_incarnation);
-  });
-  if (progress_ && (!not_incarnation || progress_->incarnation() != *not_incarnation)) return progress_;
+  auto fits = [&]() -> const msg::RobotProgress* {
+    auto it = progress_.find(robot_id);
+    if (it == progress_.end() || (not_incarnation && it->second.incarnation() == *not_incarnation))
+      return nullptr;
+    return &it->second;
+  };
+  changed_.wait_for(lock, timeout, [&] { return fits() != nullptr; });
+  if (const msg::RobotProgress* p = fits()) return *p;
   return std::nullopt;
 }
 
@@ -90,10 +135,13 @@ std::optional<std::uint64_t> lastDurableSeq(const msg::RobotProgress& p, const s
 }
 
 ScanPublisher::~ScanPublisher() {
-  // Stop callbacks before the listener goes away.
-  node_.remove(ack_reader_);
-  node_.remove(progress_reader_);
-  node_.remove(writer_);
+  // Stop callbacks before the listeners go away.
+  std::lock_guard lock(robots_mutex_);
+  for (auto& [id, r] : robots_) {
+    node_.remove(r->ack_reader);
+    node_.remove(r->progress_reader);
+    node_.remove(r->writer);
+  }
 }
 
 bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
@@ -101,8 +149,14 @@ bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
   // scan sent then would be lost. A statistics message from the server shows it has discovered us (or,
   // with statistics switched off, a grace period after matching does).
   const auto deadline = std::chrono::steady_clock::now() + timeout;
+  auto all_matched = [this] {
+    std::lock_guard lock(robots_mutex_);
+    for (auto& [id, r] : robots_)
+      if (!msg::matchedBothWays(*r->writer, *r->ack_reader)) return false;
+    return true;
+  };
   while (std::chrono::steady_clock::now() < deadline) {
-    if (msg::matchedBothWays(*writer_, *ack_reader_)) {
+    if (all_matched()) {
       if (!matched_at_) matched_at_ = std::chrono::steady_clock::now();
       if (lastStatistics() ||
           std::chrono::steady_clock::now() - *matched_at_ > std::chrono::milliseconds(2500)) {
@@ -153,9 +207,17 @@ bool ScanPublisher::publish(const std::string& robot_id, std::uint64_t seq, cons
   return publishRaw(m);
 }
 
-bool ScanPublisher::publishRaw(msg::Scan& m) {
+bool ScanPublisher::publishRaw(msg::Scan& m, const std::string& as_robot) {
+  bool made = false;
+  Robot& r = robot(as_robot.empty() ? m.robot_id() : as_robot, &made);
+  if (made) {
+    // A sample written before the server's reader matched is lost (volatile): wait for it, bounded.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (!msg::matchedBothWays(*r.writer, *r.ack_reader) && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   m.publish_ns(msg::nowNs());
-  return writer_->write(&m);
+  return r.writer->write(&m);
 }
 
 void ScanPublisher::onAcks(dds::DataReader* reader) {

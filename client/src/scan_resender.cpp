@@ -23,7 +23,7 @@ void ScanResender::publishAgain(std::uint64_t seq, bool timed) {
 
 std::uint64_t ScanResender::resumeFrom(std::uint64_t first, std::uint64_t end,
                                        std::chrono::milliseconds timeout) {
-  const auto p = publisher_.waitForProgress(timeout);
+  const auto p = publisher_.waitForProgress(robot_id_, timeout);
   if (!p) {
     spdlog::warn(
         "{}: no robot progress from the server within {} ms: numbering starts at {} (a server "
@@ -65,7 +65,7 @@ void ScanResender::poll() {
   }
   // The server's progress is what it holds: a scan in it is durable even if its acknowledgement was lost
   // (acknowledgements written before the server's ack writer matched this robot never arrive).
-  const auto p = publisher_.progress();
+  const auto p = publisher_.progress(robot_id_);
   if (p) {
     for (auto it = unacked_.begin(); it != unacked_.end();) {
       if (heldDurably(*p, robot_id_, it->first)) {

@@ -59,7 +59,10 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         {{"wait", OverflowPolicy::kWait}, {"drop_oldest", OverflowPolicy::kDropOldest}},
         "a robot's queue is full: wait (back-pressure, nothing lost) or drop_oldest (bounded latency, "
         "counted)");
-    t.add("max-robots", o.pipeline.max_robots, "robots served at most").range(1, 100000);
+    t.add("max-robots", o.pipeline.max_robots,
+          "robots served at most (and robots with scan and acknowledgement topics of their own, "
+          "densemap/scans/<robot_id>)")
+        .range(1, 100000);
     t.add("max-points", o.limits.max_points, "larger scans are rejected").range(1, 1e8);
     t.add("update-threads", o.update_threads, "threads of the map update (0: all cores)").range(0, 1024);
     t.add("update-nice", o.update_nice,

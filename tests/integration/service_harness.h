@@ -83,7 +83,7 @@ struct ServiceHarness {
     msg::DdsOptions dds = options.dds;
     dds.name = "test-client";
     node = std::make_unique<msg::DdsNode>(dds);
-    robot = std::make_unique<client::ScanPublisher>(*node);
+    robot = std::make_unique<client::ScanPublisher>(*node, std::vector<std::string>{"robot-0"});
     query = std::make_unique<client::QueryClient>(*node, "test-client");
     admin = std::make_unique<client::AdminClient>(*node, "test-admin");
     EXPECT_TRUE(robot->waitForServer(20s)) << "the robot did not discover the server";

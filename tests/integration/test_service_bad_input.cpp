@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "densemap/msg/checked_type.h"
+#include "densemap/msg/peer_topic.h"
 #include "service_harness.h"
 
 namespace densemap::test {
@@ -62,6 +63,26 @@ TEST_F(BadInput, NonFinitePointsAreDroppedAndCountedTheRestIsMapped) {
   filtered.points.erase(filtered.points.begin(), filtered.points.begin() + 3);
   accepted_.push_back(filtered);
   expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
+}
+
+TEST_F(BadInput, AScanLabelledAnotherRobotIsRejectedAsTheSendersOwn) {
+  start(221);
+  // robot-0's topic names the sender: a scan on it that says robot-9 is refused, acknowledged to robot-0
+  // and counted as robot-0's; robot-9's counters do not move.
+  msg::Scan m = message(scans_[1], "robot-9", 1);
+  ASSERT_TRUE(h_->robot->publishRaw(m, "robot-0"));
+  h_->robot->waitForAcks({"robot-0"}, 2, 30s);
+  const auto ack = h_->robot->ack("robot-0", 1);
+  ASSERT_TRUE(ack.has_value()) << "no acknowledgement on robot-0's topic";
+  expectRejectedAndUnchanged(*ack, "a scan labelled another robot");
+  EXPECT_NE(ack->message().find("only its own scans"), std::string::npos) << ack->message();
+  for (const auto& [id, c] : h_->server->service.statistics().robots) {
+    EXPECT_NE(id, "robot-9") << "the label's robot was counted";
+    if (id == "robot-0") {
+      EXPECT_EQ(c.rejected, 1u);
+    }
+  }
+  EXPECT_FALSE(h_->robot->ack("robot-9", 1).has_value());
 }
 
 TEST_F(BadInput, EmptyAllNanAndOversizedScansAreRejected) {
@@ -199,7 +220,7 @@ TEST_F(BadInput, UndecodableDdsSamplesAreRefusedAndCountedTheServerStaysUp) {
   dds.name = "hostile";
   msg::DdsNode node(dds);
   auto* topic = node.topic(
-      msg::kScanTopic,
+      msg::peerTopicOf(msg::kScanTopic, "hostile"),  // a robot the server has not seen: it makes its reader
       eprosima::fastdds::dds::TypeSupport(std::make_unique<RawBytesType>("densemap::msg::Scan").release()));
   auto* writer = node.writer(topic, msg::kScanWriterProfile);
   ASSERT_NE(writer, nullptr);

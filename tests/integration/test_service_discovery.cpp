@@ -72,7 +72,7 @@ TEST(DdsOptions, UnicastPeersAloneDiscoverTheServer) {
   client_dds.no_multicast = true;
   client_dds.peers = {"127.0.0.1"};
   msg::DdsNode node(client_dds);
-  client::ScanPublisher publisher(node);
+  client::ScanPublisher publisher(node, {"peer-robot"});
   ASSERT_TRUE(publisher.waitForServer(std::chrono::seconds(20))) << "no discovery through the peer list";
   io::LidarSimulator sim(test::smallSimulator(3, 16, 256));
   std::vector<io::Scan> scans;

@@ -52,7 +52,7 @@ TEST(Namespaces, NamespacesKeepIndependentMapsApartOnOneDomain) {
   EXPECT_EQ(a.edge.otherServersSeen(), 0u);
   EXPECT_EQ(b.edge.otherServersSeen(), 0u);
   msg::DdsNode node_a(clientDds(143, "fleet_a")), node_b(clientDds(143, "fleet_b"));
-  client::ScanPublisher robot(node_a);
+  client::ScanPublisher robot(node_a, {"robot-0"});
   client::QueryClient query_a(node_a, "qa"), query_b(node_b, "qb");
   ASSERT_TRUE(robot.waitForServer(20s));
   ASSERT_TRUE(query_a.waitForServer(20s));

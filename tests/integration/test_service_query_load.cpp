@@ -109,7 +109,7 @@ TEST(QueryLoad, AMillionPointQueryGivesItsMemoryBack) {
     dds.domain = 141;
     dds.loopback = true;
     msg::DdsNode node(dds);
-    client::ScanPublisher robot(node);
+    client::ScanPublisher robot(node, {"robot-0"});
     client::QueryClient query(node, "big");
     ASSERT_TRUE(robot.waitForServer(20s));
     ASSERT_TRUE(query.waitForServer(20s));

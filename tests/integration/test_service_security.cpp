@@ -12,7 +12,7 @@
 
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/densemapPubSubTypes.h"
-#include "densemap/msg/reply_topic.h"
+#include "densemap/msg/peer_topic.h"
 #include "security_keystore.h"
 #include "service_harness.h"
 
@@ -94,7 +94,7 @@ TEST(Security, EveryRoleDoesWhatItIsFor) {
   TestServer server(secureServer(201, keys / "server"));
   msg::DdsNode robot_node(ddsAs(201, keys / "robot-1"));
   EXPECT_EQ(robot_node.identity().name, "robot-1");
-  client::ScanPublisher robot(robot_node);
+  client::ScanPublisher robot(robot_node, {"robot-1"});
   ASSERT_TRUE(robot.waitForServer(30s)) << "the robot was not authenticated and matched";
   const auto sent = scans(3);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
@@ -118,7 +118,7 @@ TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
   Keystore keys;
   TestServer server(secureServer(202, keys / "server"));
   msg::DdsNode robot_node(ddsAs(202, keys / "robot-1"));
-  client::ScanPublisher robot(robot_node);
+  client::ScanPublisher robot(robot_node, {"robot-1"});
   msg::DdsNode client_node(ddsAs(202, keys / "client-1"));
   client::QueryClient query(client_node, "client-1");
   ASSERT_TRUE(robot.waitForServer(30s));
@@ -126,11 +126,11 @@ TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
 
   // The intruder: plain DDS on the same domain, listening to everything the legitimate ones exchange.
   msg::DdsNode plain(ddsAs(202, {}));
-  auto scans_seen = std::make_unique<ScanCounter>(plain, msg::kScanTopic);
+  auto scans_seen = std::make_unique<ScanCounter>(plain, msg::peerTopicOf(msg::kScanTopic, "robot-1"));
   auto stats_seen = std::make_unique<StatsCounter>(plain, msg::kStatisticsTopic);
-  auto acks_seen = std::make_unique<AckCounter>(plain, msg::kScanAckTopic);
+  auto acks_seen = std::make_unique<AckCounter>(plain, msg::peerTopicOf(msg::kScanAckTopic, "robot-1"));
   auto replies_seen =
-      std::make_unique<ReplyCounter>(plain, msg::replyTopicOf(msg::kQueryReplyTopic, "client-1"));
+      std::make_unique<ReplyCounter>(plain, msg::peerTopicOf(msg::kQueryReplyTopic, "client-1"));
   // Traffic the intruder would see on a plain domain: scans, acks, replies and statistics.
   const auto sent = scans(3);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
@@ -147,14 +147,14 @@ TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
 
   // Its senders on a participant of their own (the listener would hear them otherwise).
   msg::DdsNode plain_sender(ddsAs(202, {}));
-  client::ScanPublisher intruder_robot(plain_sender);
+  client::ScanPublisher intruder_robot(plain_sender, {"robot-1"});  // posing as robot-1
   client::QueryClient intruder_query(plain_sender, "intruder");
   client::AdminClient intruder_admin(plain_sender, "intruder");
 
   // Its own attempts: scans, a query, a reset.
   EXPECT_FALSE(intruder_query.waitForServer(3s));
   EXPECT_FALSE(intruder_admin.waitForServer(1s));
-  for (std::size_t i = 0; i < sent.size(); ++i) intruder_robot.publish("intruder", 100 + i, sent[i]);
+  for (std::size_t i = 0; i < sent.size(); ++i) intruder_robot.publish("robot-1", 100 + i, sent[i]);
   msg::AdminRequest reset = client::resetRequest();
   reset.client_id("client-1");  // even pretending to be someone else
   plain_sender
@@ -182,12 +182,60 @@ TEST(Security, ARobotCannotCommandOrQueryAndAClientCannotPublishScans) {
   }
   EXPECT_THROW(client::QueryClient(robot_node, "robot-1"), msg::DdsError);
   // Nor can it read the other robots' scans.
-  EXPECT_THROW(ScanCounter(robot_node, msg::kScanTopic), msg::DdsError);
+  EXPECT_THROW(ScanCounter(robot_node, msg::peerTopicOf(msg::kScanTopic, "robot-2")), msg::DdsError);
 
   msg::DdsNode client_node(ddsAs(203, keys / "client-1"));
-  EXPECT_THROW(client::ScanPublisher publisher(client_node), msg::DdsError);
+  EXPECT_THROW(client::ScanPublisher publisher(client_node, {"client-1"}), msg::DdsError);
   EXPECT_THROW(client::AdminClient(client_node, "client-1"), msg::DdsError);
   EXPECT_EQ(server.service.statistics().totals().received, 0u);
+}
+
+TEST(Security, ARobotReadsOnlyItsOwnAcksAndSendsOnlyAsItself) {
+  Keystore keys;
+  TestServer server(secureServer(220, keys / "server"));
+  msg::DdsNode one(ddsAs(220, keys / "robot-1")), two(ddsAs(220, keys / "robot-2"));
+  // A robot identity may send as itself and as robot ids under its name ("robot-1-<k>": a program
+  // publishing for several robots) ...
+  client::ScanPublisher robot1(one, {"robot-1", "robot-1-7"}), robot2(two, {"robot-2"});
+  ASSERT_TRUE(robot1.waitForServer(30s));
+  ASSERT_TRUE(robot2.waitForServer(30s));
+  // ... never as another robot, and it reads no other robot's acknowledgements, progress or scans.
+  try {
+    client::ScanPublisher as_two(one, {"robot-2"});
+    ADD_FAILURE() << "robot-1 made a writer on robot-2's scan topic";
+  } catch (const msg::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("may not publish"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(client::ScanPublisher(one, {"robot-10"}), msg::DdsError) << "a prefix is not a name";
+  EXPECT_THROW(AckCounter(one, msg::peerTopicOf(msg::kScanAckTopic, "robot-2")), msg::DdsError);
+  EXPECT_THROW(ScanCounter(one, msg::peerTopicOf(msg::kScanTopic, "robot-2")), msg::DdsError);
+  EXPECT_THROW((Counter<msg::RobotProgress, msg::RobotProgressPubSubType>(
+                   one, msg::peerTopicOf(msg::kRobotProgressTopic, "robot-2"))),
+               msg::DdsError);
+  EXPECT_THROW((Counter<msg::RobotProgress, msg::RobotProgressPubSubType>(one, msg::kRobotProgressTopic)),
+               msg::DdsError);
+  const auto sent = scans(2);
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    ASSERT_TRUE(robot1.publish("robot-1", i, sent[i]));
+    ASSERT_TRUE(robot1.publish("robot-1-7", i, sent[i]));
+    ASSERT_TRUE(robot2.publish("robot-2", i, sent[i]));
+  }
+  EXPECT_EQ(robot1.waitForAcks({"robot-1", "robot-1-7"}, 2 * sent.size(), 60s).applied, 2 * sent.size());
+  EXPECT_EQ(robot2.waitForAcks({"robot-2"}, sent.size(), 60s).applied, sent.size());
+  std::this_thread::sleep_for(500ms);
+  EXPECT_EQ(robot1.acks({"robot-2"}).total(), 0u) << "robot-1 received robot-2's acknowledgements";
+  EXPECT_EQ(robot2.acks({"robot-1", "robot-1-7"}).total(), 0u) << "robot-2 received robot-1's";
+  // A scan labelled robot-2 on robot-1's own topic is refused, counted and acknowledged as robot-1's.
+  msg::Scan forged = client::toMessage("robot-2", 50, sent[0]);
+  ASSERT_TRUE(robot1.publishRaw(forged, "robot-1"));
+  robot1.waitForAcks({"robot-1"}, sent.size() + 1, 30s);
+  const auto ack = robot1.ack("robot-1", 50);
+  ASSERT_TRUE(ack.has_value()) << "no acknowledgement of the mislabelled scan";
+  EXPECT_EQ(ack->outcome(), msg::SCAN_REJECTED);
+  EXPECT_NE(ack->message().find("only its own scans"), std::string::npos) << ack->message();
+  const auto stats = server.service.statistics();
+  EXPECT_EQ(stats.totals().processed, 3 * sent.size());
+  EXPECT_EQ(stats.totals().rejected, 1u);
 }
 
 TEST(Security, RepliesReachOnlyTheClientThatAsked) {
@@ -198,14 +246,14 @@ TEST(Security, RepliesReachOnlyTheClientThatAsked) {
   ASSERT_TRUE(q1.waitForServer(30s));
   ASSERT_TRUE(q2.waitForServer(30s));
   // client-1 listens on its own reply topic a second time while client-2 asks: none of it arrives.
-  ReplyCounter mine(one, msg::replyTopicOf(msg::kQueryReplyTopic, "client-1"));
+  ReplyCounter mine(one, msg::peerTopicOf(msg::kQueryReplyTopic, "client-1"));
   for (int i = 0; i < 5; ++i) EXPECT_EQ(statsOf(q2).status(), msg::STATUS_OK);
   // While its own questions do (the counter is not deaf).
   for (int i = 0; i < 3; ++i) EXPECT_EQ(statsOf(q1).status(), msg::STATUS_OK);
   std::this_thread::sleep_for(500ms);
   EXPECT_EQ(mine.count(), 3u);
   // And client-1's permissions do not let it subscribe to client-2's replies.
-  EXPECT_THROW(ReplyCounter(one, msg::replyTopicOf(msg::kQueryReplyTopic, "client-2")), msg::DdsError);
+  EXPECT_THROW(ReplyCounter(one, msg::peerTopicOf(msg::kQueryReplyTopic, "client-2")), msg::DdsError);
   // A program's several clients: <identity>.<k>.
   client::QueryClient q1b(one, client::clientIdOf(one, "unused", "q1"));
   EXPECT_EQ(q1b.id(), "client-1.q1");
@@ -218,7 +266,7 @@ TEST(Security, RepliesGoToTheAskerAlsoInPlainMode) {
   client::QueryClient a(node, "client-a"), b(node, "client-b");
   ASSERT_TRUE(a.waitForServer(30s));
   ASSERT_TRUE(b.waitForServer(30s));
-  ReplyCounter a_topic(node, msg::replyTopicOf(msg::kQueryReplyTopic, "client-a"));
+  ReplyCounter a_topic(node, msg::peerTopicOf(msg::kQueryReplyTopic, "client-a"));
   for (int i = 0; i < 4; ++i) EXPECT_EQ(statsOf(b).status(), msg::STATUS_OK);
   EXPECT_EQ(statsOf(a).status(), msg::STATUS_OK);
   std::this_thread::sleep_for(500ms);
@@ -244,7 +292,7 @@ TEST(Security, AnIdentityFromAnotherCaIsRefused) {
   TestServer server(secureServer(206, keys / "server"));
   // Valid in itself (its own CA signed it), so it starts; the server's CA did not sign it.
   msg::DdsNode stranger(ddsAs(206, other / "robot-1"));
-  client::ScanPublisher robot(stranger);
+  client::ScanPublisher robot(stranger, {"robot-1"});
   EXPECT_FALSE(robot.waitForServer(5s));
   const auto sent = scans(2);
   for (std::size_t i = 0; i < sent.size(); ++i) robot.publish("robot-1", i, sent[i]);
@@ -258,7 +306,7 @@ TEST(Security, AnExpiredCertificateIsRefused) {
   makeSecurity(keys.dir, "--add robot robot-brief --valid-until '+6 seconds'");
   // Joins while its certificate is valid ...
   msg::DdsNode brief(ddsAs(207, keys / "robot-brief"));
-  client::ScanPublisher robot(brief);
+  client::ScanPublisher robot(brief, {"robot-brief"});
   std::this_thread::sleep_for(7s);
   // ... and is refused by a server it meets after the certificate expired.
   try {
@@ -275,7 +323,7 @@ TEST(Security, AnExpiredCertificateIsRefused) {
   EXPECT_EQ(server.service.statistics().totals().received, 0u);
   // A valid robot still gets in.
   msg::DdsNode valid(ddsAs(207, keys / "robot-1"));
-  client::ScanPublisher ok(valid);
+  client::ScanPublisher ok(valid, {"robot-1"});
   EXPECT_TRUE(ok.waitForServer(30s));
 }
 
@@ -299,10 +347,10 @@ TEST(Security, TamperedOrForgedPermissionsAreRefused) {
   const fs::path tampered = keys.dir / "robot-tampered";
   fs::copy(keys / "robot-1", tampered);
   std::string p7s = slurp(tampered / "permissions.p7s");
-  const auto at = p7s.find("<topic>densemap/scans</topic>");
+  const std::string granted = "<topic>densemap/scans/robot-1</topic>";
+  const auto at = p7s.find(granted);
   ASSERT_NE(at, std::string::npos);
-  p7s.replace(at, std::string("<topic>densemap/scans</topic>").size(),
-              "<topic>densemap/admin/request</topic>");
+  p7s.replace(at, granted.size(), "<topic>densemap/admin/request</topic>");
   std::ofstream(tampered / "permissions.p7s") << p7s;
   ASSERT_TRUE(fastDdsAccepts(208, keys / "robot-1"));
   EXPECT_FALSE(fastDdsAccepts(208, tampered)) << "Fast DDS took a permissions file changed after signing";
@@ -352,9 +400,9 @@ TEST(Security, ARevokedRobotIsRefusedAfterTheServerLoadsTheNewList) {
   ASSERT_FALSE(revoked.empty());
   TestServer server(secureServer(209, keys / "server"));
   msg::DdsNode gone(ddsAs(209, revoked));  // its own folder still has the old list
-  client::ScanPublisher robot2(gone);
+  client::ScanPublisher robot2(gone, {"robot-2"});
   msg::DdsNode still(ddsAs(209, keys / "robot-1"));
-  client::ScanPublisher robot1(still);
+  client::ScanPublisher robot1(still, {"robot-1"});
   EXPECT_TRUE(robot1.waitForServer(30s));
   EXPECT_FALSE(robot2.waitForServer(3s));
   EXPECT_GE(server.edge.participantsRefused(), 1u);
@@ -370,7 +418,7 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
   TestServer server(secureServer(215, keys / "server"));
   // The re-issued robot maps as before ...
   msg::DdsNode reissued(ddsAs(215, keys / "robot-1"));
-  client::ScanPublisher robot(reissued);
+  client::ScanPublisher robot(reissued, {"robot-1"});
   ASSERT_TRUE(robot.waitForServer(30s)) << "a re-issued identity was not let in";
   const auto sent = scans(2);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
@@ -378,7 +426,7 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
   // ... and a robot still holding its folder from before the rotation is refused, counted in the server's
   // statistics message.
   msg::DdsNode stale(ddsAs(215, old_robot));
-  client::ScanPublisher old(stale);
+  client::ScanPublisher old(stale, {"robot-1"});
   EXPECT_FALSE(old.waitForServer(5s));
   std::uint64_t counted = 0;
   for (int i = 0; i < 100 && counted == 0; ++i) {

@@ -7,8 +7,9 @@ server's own per-robot counts come from its statistics topic (`densemap-query st
 system clock of this one machine, the clock the programs stamp scans and acknowledgements with.
 
 --secure: every program runs with DDS-Security, each with an identity of its own from a keystore made by
-tools/make-security.sh (server, robot-1 on host ra, robot-2 on rb, client-1 for the query client, operator
-for the statistics and progress read from host q). The multicast scenario first checks, across the network,
+tools/make-security.sh (server, robot-ra on host ra, robot-rb on rb: a robot identity sends as its own
+name and NAME-<k>, here robot-ra-0 and robot-rb-0; client-1 for the query client, operator for the
+statistics and progress read from host q). The multicast scenario first checks, across the network,
 that a participant without an identity gets no statistics and that a robot whose identity another CA signed
 finds no server and is counted as refused.
 """
@@ -72,8 +73,8 @@ class Run:
         return self.spawn("srv", cmd, f"server-{tag}.log")
 
     def robot(self, host, tag, scans, extra=None, wait_s=20, security=None):
-        """A robot on `host`; in secure mode robot-1 (ra) or robot-2 (rb), or the flags `security`."""
-        ident = self.identity({"ra": "robot-1", "rb": "robot-2"}.get(host, "robot-1")) if security is None else security
+        """A robot on `host`, robot id robot-<host>-0; in secure mode identity robot-<host>, or the flags `security`."""
+        ident = self.identity(f"robot-{host}") if security is None else security
         cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, *ident, "--source", self.a.source,
                "--rate", str(RATE), "--loops", "1000000", "--max-scans", str(scans), "--robot-prefix",
                f"robot-{host}", "--scan-log", os.path.join(self.dir, f"scans-{tag}.jsonl"), "--summary-json",
@@ -204,7 +205,7 @@ def check_intruders(a, run, report, failures):
     """Secure mode: from host q, a participant without an identity and a robot of another CA get nothing."""
     plain = run.query("statistics", security=[], timeout_s=6)
     foreign = run.robot("q", "foreign", 1, wait_s=8, extra=[],
-                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-1")])
+                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-q")])
     try:
         foreign.wait(timeout=60)
     except subprocess.TimeoutExpired:
@@ -409,10 +410,13 @@ def main():
         make = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "tools",
                             "make-security.sh")
         a.keystore, a.foreign_keystore = os.path.join(a.work, "keystore"), os.path.join(a.work, "foreign-ca")
-        subprocess.run([make, a.keystore, "--robots", "2", "--clients", "1", "--days", "2"], check=True,
-                       stdout=subprocess.DEVNULL)
-        subprocess.run([make, a.foreign_keystore, "--robots", "1", "--clients", "0", "--days", "2"], check=True,
-                       stdout=subprocess.DEVNULL)
+        # Robot identities named after their hosts: each may send only as robot-<host> and robot-<host>-<k>. The
+        # foreign one may send as robot-q too, so it fails only because the server refuses its CA.
+        for keystore, robots in ((a.keystore, ["robot-ra", "robot-rb"]), (a.foreign_keystore, ["robot-q"])):
+            subprocess.run([make, keystore, "--robots", "0", "--clients", "1", "--days", "2"], check=True,
+                           stdout=subprocess.DEVNULL)
+            for r in robots:
+                subprocess.run([make, keystore, "--add", "robot", r, "--days", "2"], check=True, stdout=subprocess.DEVNULL)
     net = Net(a.ns_prefix, a.hosts)
     report = {"transport": "UDPv4 only (--udp-only), each program in its own network namespace, veth + bridge",
               "secure": a.secure,

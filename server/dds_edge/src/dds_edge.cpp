@@ -16,7 +16,7 @@
 
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/densemapPubSubTypes.h"
-#include "densemap/msg/reply_topic.h"
+#include "densemap/msg/peer_topic.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/log_throttle.h"
@@ -34,9 +34,7 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
   explicit Listener(DdsEdge& e) : e_(e) {}
   // Readers are told apart by identity: the listener is attached only once every reader exists.
   void on_data_available(fdds::DataReader* reader) override {
-    if (reader == e_.scan_reader_) {
-      e_.scans_ready_.notify_one();
-    } else if (reader == e_.query_reader_) {
+    if (reader == e_.query_reader_) {
       e_.takeQueries();
     } else if (reader == e_.admin_reader_) {
       e_.takeCommands();
@@ -53,10 +51,22 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
   DdsEdge& e_;
 };
 
-// Remote readers of our reply topics, as discovery finds them (DDS's thread): their writers are made before
-// those clients ask. Readers found before the reply writers existed are passed on once they do.
+// Remote readers of our per-peer topics and remote writers of robots' scan topics, as discovery finds them
+// (DDS's thread): the writers are made before those clients ask, the readers before those robots send.
+// What is found before the edge's side exists is passed on once it does.
 class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
  public:
+  void on_publisher_discovery(fdds::DomainParticipant*,
+                              eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    std::string topic = info.info.topicName().to_string();
+    std::lock_guard lock(mutex_);
+    if (scans_ == nullptr) {
+      if (early_writers_.size() < 4096) early_writers_.push_back(std::move(topic));
+      return;
+    }
+    scans_->writerDiscovered(topic);
+  }
   void on_subscriber_discovery(fdds::DomainParticipant*,
                                eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override {
     if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
@@ -99,15 +109,28 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
       for (ReplyWriters* w : targets_) w->readerDiscovered(t);
     early_.clear();
   }
+  void readyForScans(ScanReaders* scans) {
+    std::lock_guard lock(mutex_);
+    scans_ = scans;
+    for (const std::string& t : early_writers_) scans_->writerDiscovered(t);
+    early_writers_.clear();
+  }
+  void detachScans() {
+    std::lock_guard lock(mutex_);
+    scans_ = nullptr;
+  }
   void detach() {
     std::lock_guard lock(mutex_);
     targets_.clear();
+    scans_ = nullptr;
   }
 
  private:
   std::mutex mutex_;
   std::vector<ReplyWriters*> targets_;
   std::vector<std::string> early_;
+  ScanReaders* scans_ = nullptr;
+  std::vector<std::string> early_writers_;
   static constexpr std::size_t kMaxRememberedRefusals = 65536;
   std::set<std::string> refused_guids_;  // guarded by mutex_
   std::atomic<std::uint64_t> refused_{0};
@@ -153,20 +176,25 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     dds.name = service_.options().server_id;
     discovery_ = std::make_unique<DiscoveryListener>();
     node_ = std::make_unique<msg::DdsNode>(dds, discovery_.get());
-    auto* scans = node_->topic(msg::kScanTopic, msg::typeSupport<msg::ScanPubSubType>());
-    auto* acks = node_->topic(msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>());
     auto* requests = node_->topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
     auto* admin_requests =
         node_->topic(msg::kAdminRequestTopic, msg::typeSupport<msg::AdminRequestPubSubType>());
     auto* stats = node_->topic(msg::kStatisticsTopic, msg::typeSupport<msg::ServerStatisticsPubSubType>());
-    ack_writer_ = node_->writer(acks, msg::kMessageWriterProfile);
+    acks_ =
+        std::make_unique<ReplyWriters>(*node_, msg::kScanAckTopic, msg::typeSupport<msg::ScanAckPubSubType>,
+                                       msg::kMessageWriterProfile, service_.options().pipeline.max_robots);
+    // A robot's progress writer starts with the robot's progress: a robot reads it first (transient local).
+    robot_progress_ = std::make_unique<ReplyWriters>(
+        *node_, msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>,
+        msg::progressWriterQos(), service_.options().pipeline.max_robots,
+        [this](const std::string& robot, fdds::DataWriter& w) { writeRobotProgress(robot, w); });
     replies_ = std::make_unique<ReplyWriters>(*node_, msg::kQueryReplyTopic,
                                               msg::typeSupport<msg::QueryReplyPubSubType>,
                                               msg::kReplyWriterProfile, options_.max_clients);
     admin_replies_ = std::make_unique<ReplyWriters>(*node_, msg::kAdminReplyTopic,
                                                     msg::typeSupport<msg::AdminReplyPubSubType>,
                                                     msg::kReplyWriterProfile, options_.max_clients);
-    discovery_->ready({replies_.get(), admin_replies_.get()});
+    discovery_->ready({replies_.get(), admin_replies_.get(), acks_.get(), robot_progress_.get()});
     stats_writer_ = node_->writer(stats, msg::kMessageWriterProfile);
     auto* progress = node_->topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
     progress_writer_ = node_->writer(progress, msg::progressWriterQos());
@@ -178,11 +206,14 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
     }
     stats_reader_ = node_->reader(stats, msg::kMessageReaderProfile, listener_.get());
     checkForAnotherServer();
-    scan_reader_ = node_->reader(scans, msg::kScanReaderProfile, nullptr);
+    scans_ = std::make_unique<ScanReaders>(*node_, service_.options().pipeline.max_robots,
+                                           [this] { scans_ready_.notify_one(); });
+    discovery_->readyForScans(scans_.get());
     query_reader_ = node_->reader(requests, msg::kMessageReaderProfile, nullptr);
     admin_reader_ = node_->reader(admin_requests, msg::kMessageReaderProfile, nullptr);
-    for (auto* r : {scan_reader_, query_reader_, admin_reader_}) r->set_listener(listener_.get());
-    // Once the scan reader exists: what a reconnecting robot resumes from (it resends what follows).
+    for (auto* r : {query_reader_, admin_reader_}) r->set_listener(listener_.get());
+    // What a reconnecting robot resumes from (it resends what follows); each robot's own goes out as its
+    // progress writer is made.
     publishProgress();
   } catch (...) {
     util::setRealtimePriority(0);
@@ -290,16 +321,32 @@ void DdsEdge::queueAck(const ScanJob& job, ScanOutcome outcome, const std::strin
   acks_ready_.notify_one();
 }
 
+namespace {
+// The scan as the service takes it, from robot `robot`'s topic. The topic names the sender (in secure mode
+// the permissions let only that identity write it), so a scan labelled another robot is refused, and
+// counted and acknowledged as the topic's robot's.
+ScanJob scanFromTopic(const msg::Scan& m, const std::string& robot, std::string& why) {
+  ScanJob job = toScanJob(m, why);
+  job.received_ns = msg::nowNs();
+  if (job.robot_id != robot) {
+    why = fmt::format(
+        "the scan says robot '{}' but came on robot '{}''s topic: a robot sends only its own scans, on "
+        "densemap/scans/<its robot id>",
+        job.robot_id, robot);
+    job.robot_id = robot;
+  }
+  return job;
+}
+}  // namespace
+
 void DdsEdge::ingestLoop() {
   msg::Scan m;
-  fdds::SampleInfo info;
+  std::string robot;
   auto ack = [this](const ScanJob& j, ScanOutcome o, const std::string& why) { queueAck(j, o, why); };
   while (running_) {
-    if (scan_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
+    if (scans_->take(m, robot)) {
       std::string why;
-      ScanJob job = toScanJob(m, why);
-      job.received_ns = msg::nowNs();
+      ScanJob job = scanFromTopic(m, robot, why);
       // Rejections are acknowledged through `ack` like every other outcome.
       if (why.empty()) {
         service_.submit(std::move(job), ack);
@@ -358,7 +405,7 @@ void DdsEdge::writeAdminReply(msg::AdminReply& rp) {
 
 void DdsEdge::logRefusedClient(const std::string& client_id, const char* what) {
   if (!refused_client_log_.due()) return;  // counted by the caller; a flood stays cheap to log
-  const std::string why = msg::checkClientId(client_id);
+  const std::string why = msg::checkPeerId(client_id);
   spdlog::warn("{} from client '{}' not answered: {}", what, client_id,
                why.empty()
                    ? fmt::format("{} clients have reply topics already (--max-clients)", options_.max_clients)
@@ -451,17 +498,29 @@ void DdsEdge::adminLoop() {
   }
 }
 
-void DdsEdge::publishProgress() {
-  msg::RobotProgress m = toWire(service_.durableProgress(), service_.options().server_id, incarnation_,
-                                service_.options().durability.journal);
+void DdsEdge::publishProgress(const std::set<std::string>& robots) {
+  const durability::RobotProgress p = service_.durableProgress();
+  const ServiceOptions& so = service_.options();
+  msg::RobotProgress m = toWire(p, so.server_id, incarnation_, so.durability.journal);
   progress_writer_->write(&m);
+  for (const std::string& robot : robots) {
+    msg::RobotProgress own = toWire(p, so.server_id, incarnation_, so.durability.journal, robot);
+    robot_progress_->write(robot, &own);
+  }
+}
+
+void DdsEdge::writeRobotProgress(const std::string& robot, fdds::DataWriter& writer) {
+  const ServiceOptions& so = service_.options();
+  msg::RobotProgress m =
+      toWire(service_.durableProgress(), so.server_id, incarnation_, so.durability.journal, robot);
+  writer.write(&m);
 }
 
 void DdsEdge::ackLoop() {
   // Robot progress goes out with the acknowledgements, at most every 100 ms (a reconnecting robot reads
   // the last one: transient local), and once more when nothing new came for 100 ms.
   auto last_progress = std::chrono::steady_clock::now();
-  bool progress_due = false;
+  std::set<std::string> progress_due;  // robots with a durable scan since the last progress
   for (;;) {
     std::deque<msg::ScanAck> batch;
     {
@@ -472,16 +531,16 @@ void DdsEdge::ackLoop() {
     }
     for (msg::ScanAck& a : batch) {
       a.server_id(service_.options().server_id);
-      ack_writer_->write(&a);
-      progress_due |= a.durable();
+      acks_->write(a.robot_id(), &a);  // refused (counted) only past max_robots
+      if (a.durable()) progress_due.insert(a.robot_id());
     }
-    if (progress_due && std::chrono::steady_clock::now() - last_progress >= 100ms) {
-      publishProgress();
+    if (!progress_due.empty() && std::chrono::steady_clock::now() - last_progress >= 100ms) {
+      publishProgress(progress_due);
       last_progress = std::chrono::steady_clock::now();
-      progress_due = false;
+      progress_due.clear();
     }
   }
-  if (progress_due) publishProgress();
+  if (!progress_due.empty()) publishProgress(progress_due);
 }
 
 void DdsEdge::statisticsLoop() {
@@ -516,21 +575,19 @@ void DdsEdge::statisticsLoop() {
 
 std::size_t DdsEdge::refuseScansStillInDds() {
   msg::Scan m;
-  fdds::SampleInfo info;
+  std::string robot;
   std::size_t refused = 0;
   auto ack = [this](const ScanJob& j, ScanOutcome o, const std::string& why) { queueAck(j, o, why); };
-  while (scan_reader_->take_next_sample(&m, &info) == ReturnCode_t::RETCODE_OK) {
-    if (!info.valid_data) continue;
+  while (scans_->take(m, robot)) {
     std::string why;
-    ScanJob job = toScanJob(m, why);
-    job.received_ns = msg::nowNs();
+    ScanJob job = scanFromTopic(m, robot, why);
     service_.refuse(job, "the server is shutting down; the scan was not mapped (send it to a running server)",
                     ack);
     ++refused;
   }
-  // Nothing more reaches this reader; a scan sent from here on is the robot's to resend (it gets no ack).
-  node_->remove(scan_reader_);
-  scan_reader_ = nullptr;
+  // Nothing more reaches these readers; a scan sent from here on is the robot's to resend (it gets no ack).
+  discovery_->detachScans();
+  scans_->removeAll();
   return refused;
 }
 
@@ -549,7 +606,7 @@ void DdsEdge::stop() {
   if (ingest_thread_.joinable()) ingest_thread_.join();
   service_.stop(drain);  // idempotent; the outcomes' acknowledgements are queued
   // What DDS still held when the intake closed: refused, each acknowledged, so robots know to resend.
-  const std::size_t refused = scan_reader_ != nullptr ? refuseScansStillInDds() : 0;
+  const std::size_t refused = scans_ != nullptr ? refuseScansStillInDds() : 0;
   if (stats_thread_.joinable()) stats_thread_.join();
   if (stats_writer_ != nullptr) {
     msg::ServerStatistics m = statisticsMessage(service_.statistics());
@@ -568,9 +625,7 @@ void DdsEdge::stop() {
   if (admin_thread_.joinable()) admin_thread_.join();
   if (ack_thread_.joinable()) ack_thread_.join();  // it writes its whole backlog first
   // Written is not delivered: deleting the participant drops what robots have not acknowledged yet.
-  const bool delivered = ack_writer_ == nullptr ||
-                         ack_writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
-                             static_cast<long double>(options_.ack_flush_s))) == ReturnCode_t::RETCODE_OK;
+  const bool delivered = acks_ == nullptr || acks_->waitForAcknowledgments(options_.ack_flush_s);
   const RobotCounters t = service_.statistics().totals();
   spdlog::info(
       "stopped: {} scans received, {} in map, {} dropped, {} rejected ({} still in DDS when the intake "
@@ -581,6 +636,8 @@ void DdsEdge::stop() {
   discovery_->detach();
   replies_->stop();
   admin_replies_->stop();
+  acks_->stop();
+  robot_progress_->stop();
   node_->close();
 }
 

@@ -2,11 +2,12 @@
 
 #include <pthread.h>
 
+#include <algorithm>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 
-#include "densemap/msg/reply_topic.h"
+#include "densemap/msg/peer_topic.h"
 #include "densemap/util/realtime_priority.h"
 
 namespace densemap::server::dds_edge {
@@ -21,13 +22,14 @@ constexpr auto kIdleBeforeRemoval = 30s;
 }  // namespace
 
 ReplyWriters::ReplyWriters(msg::DdsNode& node, std::string reply_topic,
-                           std::function<fdds::TypeSupport()> type, std::string profile,
-                           std::size_t max_clients)
+                           std::function<fdds::TypeSupport()> type, WriterQos qos, std::size_t max_clients,
+                           std::function<void(const std::string&, fdds::DataWriter&)> on_made)
     : node_(node),
       base_(std::move(reply_topic)),
       wire_base_(node.topicName(base_)),
       type_(std::move(type)),
-      profile_(std::move(profile)),
+      qos_(std::move(qos)),
+      on_made_(std::move(on_made)),
       max_clients_(max_clients) {
   thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "dm-reply-topics");
@@ -55,14 +57,16 @@ std::shared_ptr<ReplyWriters::Entry> ReplyWriters::get(const std::string& client
   {
     std::lock_guard lock(mutex_);
     if (auto e = find()) return e;
-    if (!running_ || !msg::checkClientId(client_id).empty() || writers_.size() >= max_clients_) {
+    if (!running_ || !msg::checkPeerId(client_id).empty() || writers_.size() >= max_clients_) {
       ++refused_;
       return nullptr;
     }
   }
   auto e = std::make_shared<Entry>();
-  e->writer = node_.writer(node_.topic(msg::replyTopicOf(base_, client_id), type_()), profile_);
+  auto* topic = node_.topic(msg::peerTopicOf(base_, client_id), type_());
+  e->writer = std::visit([&](const auto& qos) { return node_.writer(topic, qos); }, qos_);
   e->last_used = std::chrono::steady_clock::now();
+  if (on_made_) on_made_(client_id, *e->writer);  // before the writer is shared: its first sample
   std::lock_guard lock(mutex_);
   writers_[client_id] = e;
   return e;
@@ -75,7 +79,7 @@ bool ReplyWriters::write(const std::string& client_id, void* sample) {
 }
 
 void ReplyWriters::readerDiscovered(const std::string& wire_topic) {
-  auto id = msg::clientOfReplyTopic(wire_base_, wire_topic);
+  auto id = msg::peerOfTopic(wire_base_, wire_topic);
   if (!id) return;
   {
     std::lock_guard lock(pending_mutex_);
@@ -144,6 +148,22 @@ void ReplyWriters::stop() {
     for (int i = 0; i < 2000 && e.use_count() > 1; ++i) std::this_thread::sleep_for(1ms);
     node_.remove(e->writer);
   }
+}
+
+bool ReplyWriters::waitForAcknowledgments(double timeout_s) {
+  std::vector<std::shared_ptr<Entry>> all;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, e] : writers_) all.push_back(e);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  bool ok = true;
+  for (auto& e : all) {
+    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    ok &= e->writer->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
+              static_cast<long double>(std::max(0.0, left)))) == ReturnCode_t::RETCODE_OK;
+  }
+  return ok;
 }
 
 std::size_t ReplyWriters::size() const {

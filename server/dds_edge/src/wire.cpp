@@ -274,13 +274,14 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
 }
 
 msg::RobotProgress toWire(const durability::RobotProgress& p, const std::string& server_id,
-                          std::uint64_t incarnation, bool journal) {
+                          std::uint64_t incarnation, bool journal, const std::string& only_robot) {
   msg::RobotProgress m;
   m.server_id(server_id);
   m.incarnation(incarnation);
   m.stamp_ns(util::wallClockNs());
   m.journal(journal);
   p.forEachRobot([&](const std::string& id, std::uint64_t count, std::uint64_t, std::uint64_t last) {
+    if (!only_robot.empty() && id != only_robot) return;
     msg::RobotDurability r;
     r.robot_id(id);
     r.last_durable_sequence(last);

@@ -1,6 +1,6 @@
 // Request-reply over DDS, for any request/reply pair of densemap's (queries, admin commands): sends a
 // request with this client's id and waits for the matching reply on this client's own reply topic
-// (reply_topic.h). Safe to call from several threads at once.
+// (peer_topic.h). Safe to call from several threads at once.
 #pragma once
 
 #include <chrono>
@@ -18,7 +18,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "densemap/msg/dds_node.h"
-#include "densemap/msg/reply_topic.h"
+#include "densemap/msg/peer_topic.h"
 
 namespace densemap::client {
 
@@ -36,13 +36,13 @@ class RequestClient {
   RequestClient(msg::DdsNode& node, std::string client_id, const char* request_topic, const char* reply_topic,
                 Request probe)
       : node_(node), id_(std::move(client_id)), probe_(std::move(probe)) {
-    if (const std::string why = msg::checkClientId(id_); !why.empty()) throw std::invalid_argument(why);
+    if (const std::string why = msg::checkPeerId(id_); !why.empty()) throw std::invalid_argument(why);
     listener_ = std::make_unique<Listener>(*this);
     auto* requests = node_.topic(request_topic, msg::typeSupport<RequestPubSub>());
     // Our own reply topic: the server makes its writer when it discovers this reader (or at our first
     // request). A topic per client rather than a DDS content filter: the permissions can name it, and
     // Fast DDS 2.9 evaluated a filter on a dynamic-type copy of each sample (seconds per 1 MB reply).
-    auto* replies = node_.topic(msg::replyTopicOf(reply_topic, id_), msg::typeSupport<ReplyPubSub>());
+    auto* replies = node_.topic(msg::peerTopicOf(reply_topic, id_), msg::typeSupport<ReplyPubSub>());
     writer_ = node_.writer(requests, msg::kMessageWriterProfile);
     reader_ = node_.reader(replies, msg::kMessageReaderProfile, listener_.get());
   }

@@ -1,5 +1,7 @@
-// The robot side of the scan topic: publishes core scans as DDS messages, and follows the server's
-// per-scan acknowledgements and statistics for the robots it publishes for.
+// The robot side of the scan topics: publishes core scans as DDS messages, each robot on its own
+// densemap/scans/<robot_id>, and follows the server's per-scan acknowledgements and progress on the robot's
+// own densemap/scan_acks/<robot_id> and densemap/robot_progress/<robot_id> (msg/peer_topic.h: in secure mode
+// the permissions let only the robot's identity use them), and the server's statistics.
 #pragma once
 
 #include <chrono>
@@ -32,12 +34,14 @@ struct AckCounts {
 
 class ScanPublisher {
  public:
-  explicit ScanPublisher(msg::DdsNode& node);
+  /// Makes the topics of `robot_ids` (more are made at their first publish). Throws std::invalid_argument for
+  /// an id that cannot name a topic, msg::DdsError when DDS (or the identity's permissions) refuses one.
+  ScanPublisher(msg::DdsNode& node, const std::vector<std::string>& robot_ids);
   ~ScanPublisher();
   ScanPublisher(const ScanPublisher&) = delete;
   ScanPublisher& operator=(const ScanPublisher&) = delete;
 
-  /// Waits until a server subscribes to scans (and publishes acks); false on timeout.
+  /// Waits until a server subscribes to every robot's scans (and publishes its acks); false on timeout.
   bool waitForServer(std::chrono::milliseconds timeout);
   /// When waitForServer first saw the writer and the acknowledgement reader matched both ways (in secure
   /// mode: after the server authenticated this participant and granted its permissions).
@@ -46,10 +50,12 @@ class ScanPublisher {
   /// Publishes one scan for `robot_id`: sensor-frame points (or world-frame points when the scan is in the
   /// world frame, sent with frame_id "world"), the pose as position + unit quaternion, the LiDAR geometry.
   /// Blocks while the server is behind and the writer's history is full (reliable back-pressure).
-  /// Returns false when DDS refused the sample. Thread-safe.
+  /// Returns false when DDS refused the sample. Thread-safe. A robot not given to the constructor gets its
+  /// topics now, and the call waits (up to 10 s) until the server reads them.
   bool publish(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan);
-  /// Publishes a raw message as is (tests use it to send malformed scans).
-  bool publishRaw(msg::Scan& m);
+  /// Publishes a raw message as is (tests use it to send malformed scans), on the topic of `as_robot` (empty:
+  /// of the message's robot id).
+  bool publishRaw(msg::Scan& m, const std::string& as_robot = "");
 
   /// Waits until `expected` acknowledgements arrived for these robots, or the timeout passes.
   AckCounts waitForAcks(const std::set<std::string>& robots, std::uint64_t expected,
@@ -61,10 +67,11 @@ class ScanPublisher {
   std::vector<double> latenciesMs(const std::set<std::string>& robots) const;
   /// Called (on a DDS thread, one at a time) for every acknowledgement as it arrives, e.g. to log it.
   void setAckObserver(std::function<void(const msg::ScanAck&)> observer);
-  /// The server's last robot-progress message (what it keeps of each robot), if one arrived.
-  std::optional<msg::RobotProgress> progress() const;
-  /// Waits up to `timeout` for a progress message (from a server other than `incarnation`, when given).
-  std::optional<msg::RobotProgress> waitForProgress(std::chrono::milliseconds timeout,
+  /// The server's last progress message for this robot (what it keeps of it), if one arrived.
+  std::optional<msg::RobotProgress> progress(const std::string& robot_id) const;
+  /// Waits up to `timeout` for this robot's progress (from a server other than `incarnation`, when given).
+  std::optional<msg::RobotProgress> waitForProgress(const std::string& robot_id,
+                                                    std::chrono::milliseconds timeout,
                                                     std::optional<std::uint64_t> not_incarnation = {});
   /// The last statistics message from the server, if one arrived.
   std::optional<msg::ServerStatistics> lastStatistics() const;
@@ -75,15 +82,23 @@ class ScanPublisher {
 
  private:
   class Listener;
+  // One robot's topics. Entries are made, never removed, until the publisher goes.
+  struct Robot {
+    std::string id;
+    std::unique_ptr<Listener> listener;
+    eprosima::fastdds::dds::DataWriter* writer = nullptr;
+    eprosima::fastdds::dds::DataReader* ack_reader = nullptr;
+    eprosima::fastdds::dds::DataReader* progress_reader = nullptr;
+  };
+  Robot& robot(const std::string& robot_id, bool* made = nullptr);
+  std::unique_ptr<Robot> makeRobot(const std::string& robot_id);
   void onAcks(eprosima::fastdds::dds::DataReader* reader);
-  void onProgress(eprosima::fastdds::dds::DataReader* reader);
+  void onProgress(const std::string& robot_id, eprosima::fastdds::dds::DataReader* reader);
 
   msg::DdsNode& node_;
-  std::unique_ptr<Listener> listener_;
-  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
-  eprosima::fastdds::dds::DataReader* ack_reader_ = nullptr;
-  eprosima::fastdds::dds::DataReader* progress_reader_ = nullptr;
-  std::optional<msg::RobotProgress> progress_;  // guarded by mutex_
+  std::mutex robots_mutex_;  // taken before mutex_, never while DDS calls a listener
+  std::map<std::string, std::unique_ptr<Robot>> robots_;  // guarded by robots_mutex_
+  std::map<std::string, msg::RobotProgress> progress_;    // guarded by mutex_
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;

@@ -1,5 +1,6 @@
-// densemap's DDS edge: takes scans from densemap/scans into the MapService, answers queries on
-// densemap/query/* and commands on densemap/admin/*, acknowledges every scan and publishes statistics.
+// densemap's DDS edge: takes each robot's scans from densemap/scans/<robot_id> into the MapService, answers
+// queries on densemap/query/* and commands on densemap/admin/*, acknowledges every scan on the robot's own
+// densemap/scan_acks/<robot_id>, and publishes statistics and progress.
 // Its threads: DDS's own (cheap queries are answered there), scan intake, query workers, one admin
 // worker (commands run one at a time, in arrival order), acknowledgements, statistics.
 #pragma once
@@ -9,12 +10,14 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <thread>
 #include <vector>
 
 #include "densemap/msg/dds_node.h"
 #include "densemap/msg/densemap.h"
 #include "densemap/server/dds_edge/reply_writers.h"
+#include "densemap/server/dds_edge/scan_readers.h"
 #include "densemap/server/map_service.h"
 #include "densemap/util/log_throttle.h"
 
@@ -92,7 +95,9 @@ class DdsEdge {
   void takeCommands();
   void adminLoop();
   void ackLoop();
-  void publishProgress();
+  /// Every robot's progress (the operator's topic) and, for each of `robots`, its own.
+  void publishProgress(const std::set<std::string>& robots = {});
+  void writeRobotProgress(const std::string& robot, eprosima::fastdds::dds::DataWriter& writer);
   void statisticsLoop();
   void queueAck(const ScanJob& job, ScanOutcome outcome, const std::string& why);
   std::size_t refuseScansStillInDds();
@@ -111,13 +116,13 @@ class DdsEdge {
   std::unique_ptr<Listener> listener_;
   std::unique_ptr<DiscoveryListener> discovery_;
   std::unique_ptr<msg::DdsNode> node_;
-  // Replies, on a topic per client (made before the readers that take requests, removed after them).
-  std::unique_ptr<ReplyWriters> replies_, admin_replies_;
-  eprosima::fastdds::dds::DataReader* scan_reader_ = nullptr;
+  // Replies, on a topic per client (made before the readers that take requests, removed after them), and
+  // acknowledgements and progress on a topic per robot.
+  std::unique_ptr<ReplyWriters> replies_, admin_replies_, acks_, robot_progress_;
+  std::unique_ptr<ScanReaders> scans_;  // the intake thread's (and stop()'s once it has ended)
   eprosima::fastdds::dds::DataReader* query_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* admin_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* stats_reader_ = nullptr;  // other servers' statistics
-  eprosima::fastdds::dds::DataWriter* ack_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* stats_writer_ = nullptr;
   eprosima::fastdds::dds::DataWriter* progress_writer_ = nullptr;
   std::uint64_t incarnation_ = 0;

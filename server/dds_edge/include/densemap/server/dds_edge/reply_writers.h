@@ -1,4 +1,4 @@
-// The server's side of the per-client reply topics (msg/reply_topic.h): one writer per client, made when
+// The server's side of the per-client reply topics (msg/peer_topic.h): one writer per client, made when
 // the client's reply reader is discovered (so the client sees its reply topic matched before it asks) or
 // at its first request, and removed when its readers are gone. Bounded: a flood of client ids cannot make
 // unbounded writers.
@@ -13,6 +13,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <variant>
 
 #include "densemap/msg/dds_node.h"
 
@@ -20,10 +21,14 @@ namespace densemap::server::dds_edge {
 
 class ReplyWriters {
  public:
-  /// `reply_topic`: the base name (msg::kQueryReplyTopic); `type`: makes its type support.
+  /// `reply_topic`: the base name (msg::kQueryReplyTopic); `type`: makes its type support; `qos`: a
+  /// profile name or explicit QoS; `on_made`: called with each new writer and its peer id before any
+  /// other write can reach it, e.g. to write the transient-local sample the peer reads first.
+  using WriterQos = std::variant<std::string, eprosima::fastdds::dds::DataWriterQos>;
   ReplyWriters(msg::DdsNode& node, std::string reply_topic,
-               std::function<eprosima::fastdds::dds::TypeSupport()> type, std::string profile,
-               std::size_t max_clients);
+               std::function<eprosima::fastdds::dds::TypeSupport()> type, WriterQos qos,
+               std::size_t max_clients,
+               std::function<void(const std::string&, eprosima::fastdds::dds::DataWriter&)> on_made = {});
   ~ReplyWriters();
   ReplyWriters(const ReplyWriters&) = delete;
   ReplyWriters& operator=(const ReplyWriters&) = delete;
@@ -35,6 +40,9 @@ class ReplyWriters {
   /// A reader on some topic was discovered (DDS's discovery thread): makes the writer soon when the topic
   /// is one of our reply topics. Never blocks on DDS.
   void readerDiscovered(const std::string& wire_topic);
+
+  /// Waits up to `timeout_s` until every writer's samples are acknowledged by its readers; false if not.
+  bool waitForAcknowledgments(double timeout_s);
 
   std::size_t size() const;
   /// Writes refused because of max_clients or an invalid id.
@@ -54,7 +62,8 @@ class ReplyWriters {
   msg::DdsNode& node_;
   const std::string base_, wire_base_;
   std::function<eprosima::fastdds::dds::TypeSupport()> type_;
-  const std::string profile_;
+  const WriterQos qos_;
+  const std::function<void(const std::string&, eprosima::fastdds::dds::DataWriter&)> on_made_;
   const std::size_t max_clients_;
   mutable std::mutex mutex_;
   std::mutex make_mutex_;     // held while a writer is made (not mutex_: see get())

@@ -34,8 +34,9 @@ msg::AdminReply toReply(const msg::AdminRequest& rq, const CommandResult& result
 msg::QueryStatus toWire(Status s);
 msg::MapStatistics toWire(const MapSummary& s);
 msg::ServerStatistics toWire(const ServiceStatistics& s);
+/// `only_robot`: that robot's part alone (its own progress topic); empty: every robot's (the operator's).
 msg::RobotProgress toWire(const durability::RobotProgress& p, const std::string& server_id,
-                          std::uint64_t incarnation, bool journal);
+                          std::uint64_t incarnation, bool journal, const std::string& only_robot = "");
 /// When the server that sent `m` started (its stamp minus its uptime, system clock ns); nullopt when the
 /// stamp or uptime cannot be one (NaN, negative, beyond the clock's range). Another server's statistics
 /// are read to tell which of two servers on the same topics started first.
