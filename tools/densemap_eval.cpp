@@ -111,6 +111,10 @@ int main(int argc, char** argv) {
     return *rc;
   const double resolution = map_options.resolution, max_range = update_options.max_range;
   cli::setupLogging(log_level);
+  if (map_options.decay.enabled()) {
+    spdlog::error("--decay-s: the held-out evaluation maps without decay (its scans have no times); drop it");
+    return 2;
+  }
   cli::setThreads(threads);
 
   try {

@@ -54,6 +54,11 @@ int main(int argc, char** argv) {
       "map the scans in this order: a file of sequence numbers as densemap-replay numbers them (scan "
       "= first of the range + number mod its length), e.g. a server's applied order "
       "(densemap-query progress)");
+  double scan_period_s = 0.1;
+  app.add_option("--scan-period-s", scan_period_s,
+                 "map time between scans, decay's clock (--decay-s): scan n of the run is at n times this")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1e6));
   bool as_sent = false;
   app.add_flag(
       "--as-sent", as_sent,
@@ -100,6 +105,8 @@ int main(int argc, char** argv) {
         cached[k] = std::move(read);
       }
       const io::Scan& s = *cached[k];
+      m->advanceTime(static_cast<double>(n) * scan_period_s,
+                     [](const std::function<void()>& commit) { commit(); });
       auto st = engine.insert(*m, s.worldPoints(), s.origin());
       progress.step(n + 1);
       if (!st) {

@@ -48,6 +48,10 @@ int main(int argc, char** argv) {
   app.add_flag("--json", as_json, "print one JSON object");
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table})) return *rc;
   cli::setupLogging("warn");
+  if (map_options.decay.enabled()) {
+    spdlog::error("--decay-s: the query benchmark maps without decay; drop it");
+    return 2;
+  }
   try {
     const auto src = io::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());

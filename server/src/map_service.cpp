@@ -1,5 +1,7 @@
 #include "densemap/server/map_service.h"
 
+#include <cmath>
+
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -74,6 +76,7 @@ std::unique_ptr<durability::JournalStage> MapService::recoverInto(OccupancyStage
   du::RobotProgress progress;
   auto load = [&](const du::SnapshotContents& s) {
     store_->replace(map::decodeMap(s.map, options_.map));
+    if (s.map_time_s) store_->writerView().setMapTime(*s.map_time_s);
     if (dense_store_) {
       if (s.dense.empty()) throw std::runtime_error("the snapshot has no dense layer");
       dense_store_->write([&](dense::KernelLayer& layer) { layer.restoreState(s.dense); });
@@ -142,8 +145,10 @@ durability::SnapshotContents MapService::snapshotOfLayers(std::uint64_t lsn, std
   s.created_ns = util::wallClockNs();
   s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
   s.progress = std::move(progress);
-  s.map = store_->read(
-      [](const map::OccupancyMap& m, std::uint64_t) { return map::encodeMap(m, map::OctomapFormat::kFull); });
+  store_->read([&](const map::OccupancyMap& m, std::uint64_t) {
+    s.map = map::encodeMap(m, map::OctomapFormat::kFull);
+    if (!std::isnan(m.mapTime())) s.map_time_s = m.mapTime();
+  });
   if (dense_store_)
     s.dense = dense_store_->read([](const dense::KernelLayer& l, std::uint64_t) { return l.saveState(); });
   return s;
@@ -198,6 +203,7 @@ CommandResult MapService::snapshot() {
   s.fingerprint = durability::mapFingerprint(options_.map, options_.update, options_.dense);
   s.progress = std::move(change->snapshot_progress);
   s.map = map::encodeMap(*change->snapshot, map::OctomapFormat::kFull);
+  if (!std::isnan(change->snapshot->mapTime())) s.map_time_s = change->snapshot->mapTime();
   s.dense = std::move(change->dense_state);
   try {
     last_snapshot_bytes_ = data_dir_->writeSnapshot(s);

@@ -26,6 +26,12 @@ StageResult OccupancyStage::apply(ScanJob& job) {
     job.scan.frame = io::PointFrame::kWorld;
   }
   const std::vector<geometry::Vec3f>& world = job.scan.points;
+  // Map time is the scans' receive time (journaled, so a replay decays the same); decay steps run before
+  // the scan so its culling region sees the decayed map.
+  auto publish_decay = [&](const std::function<void()>& commit) {
+    store_.write([&](map::OccupancyMap&) { commit(); });
+  };
+  store_.writerView().advanceTime(static_cast<double>(job.received_ns) * 1e-9, publish_decay);
   std::uint64_t version = 0;
   const std::optional<update::UpdateStats> stats = engine_.insert(
       store_.writerView(), world, job.scan.origin(), [&](const std::function<void()>& publish) {
@@ -57,6 +63,7 @@ void OccupancyStage::applyChange(MapChange& change) {
       r.message = fmt::format("reset: forgot {} cells", r.cells_changed);
     } else if (std::holds_alternative<LoadCommand>(change.command)) {
       r.cells_changed = change.loaded->knownCells();
+      change.loaded->setMapTime(store_.writerView().mapTime());  // decay's clock goes on
       store_.replace(std::move(change.loaded));
     } else if (std::holds_alternative<SaveCommand>(change.command) ||
                std::holds_alternative<SnapshotCommand>(change.command)) {

@@ -1,7 +1,7 @@
 // libFuzzer target for a snapshot as densemap-server loads it at start-up: the file's framing and sections
-// (decodeSnapshot), the robots' progress (RobotProgress::decode) and the dense layer's state
-// (KernelLayer::restoreState). Each must refuse damage with util::FormatError, and a refused restore must
-// leave the layer as it was.
+// (decodeSnapshot, with the optional map time of decay), the robots' progress (RobotProgress::decode) and the
+// dense layer's state (KernelLayer::restoreState). Each must refuse damage with util::FormatError, and a
+// refused restore must leave the layer as it was.
 #include <cstdlib>
 #include <string_view>
 
@@ -14,7 +14,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   namespace du = densemap::server::durability;
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   try {
-    (void)du::decodeSnapshot(bytes);
+    const du::SnapshotContents s = du::decodeSnapshot(bytes);
+    // What decodes, encodes back to the same contents (the optional map time included).
+    const du::SnapshotContents again = du::decodeSnapshot(du::encodeSnapshot(s));
+    if (again.map != s.map || again.progress != s.progress || again.dense != s.dense ||
+        again.map_time_s != s.map_time_s || again.lsn != s.lsn)
+      std::abort();
   } catch (const densemap::util::FormatError&) {
   }
   try {

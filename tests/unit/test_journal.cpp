@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "densemap/dense/dense_layer_factory.h"
@@ -239,6 +241,26 @@ TEST(SnapshotFile, RoundTripsAndTellsTruncationAndDamagedSections) {
   }
   EXPECT_EQ(snapshotLsn(snapshotFileName(77)), 77u);
   EXPECT_FALSE(snapshotLsn("00000000000000000077.dms.tmp"));
+}
+
+TEST(SnapshotFile, TheMapTimeOfDecayIsAnOptionalLastSection) {
+  SnapshotContents s;
+  s.lsn = 5;
+  s.map = "m";
+  const std::string without = encodeSnapshot(s);
+  EXPECT_FALSE(decodeSnapshot(without).map_time_s.has_value()) << "snapshots without decay read as before";
+  s.map_time_s = 1.8e9 + 0.25;
+  const std::string with = encodeSnapshot(s);
+  EXPECT_EQ(with.size(), without.size() + 4 + 8 + 4 + 8);
+  ASSERT_TRUE(decodeSnapshot(with).map_time_s.has_value());
+  EXPECT_EQ(*decodeSnapshot(with).map_time_s, 1.8e9 + 0.25);
+  s.map_time_s = std::numeric_limits<double>::infinity();
+  try {
+    decodeSnapshot(encodeSnapshot(s));
+    FAIL() << "an infinite map time was read";
+  } catch (const util::FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("map time"), std::string::npos) << e.what();
+  }
 }
 
 TEST(SnapshotFile, WrittenAtomically) {

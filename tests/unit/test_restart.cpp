@@ -164,6 +164,67 @@ TEST(Restart, RecoveryOfManyRecordsSnapshotsBeforeServing) {
   EXPECT_EQ(c.lastDurableSeq("r0"), scans.size() - 1);
 }
 
+/// Decay's clock is the scans' receive time (journaled) and the snapshot keeps it: the served map equals
+/// the offline map decayed at the same times, before and after a restart from snapshot + journal, and a
+/// restarted server goes on decaying as the uninterrupted run would.
+TEST(Restart, WithDecayTheRestartedMapDecaysAsTheUninterruptedOne) {
+  TempDir tmp;
+  ServiceOptions o = durableOptions(tmp.path);
+  o.map.decay = {1.0, 0.2};
+  const std::vector<io::Scan> scans = simScans(14);
+  const std::int64_t t0 = 1'800'000'000'000'000'000;
+  // 0.1 s apart, with a 3 s pause before the last two (the map decays a lot in between).
+  auto receivedNs = [&](std::size_t i) {
+    return t0 + static_cast<std::int64_t>(i) * 100'000'000 + (i >= 12 ? 3'000'000'000 : 0);
+  };
+  auto submit = [&](MapService& s, std::size_t from, std::size_t to) {
+    Outcomes out;
+    for (std::size_t i = from; i < to; ++i) {
+      ScanJob j = jobOf(scans[i], "r0", i);
+      j.received_ns = receivedNs(i);
+      EXPECT_TRUE(s.submit(std::move(j), out.callback()).accepted);
+    }
+    EXPECT_TRUE(out.waitFor(to - from));
+    EXPECT_EQ(out.count(ScanOutcome::kInMap), to - from);
+  };
+  auto offlineUpTo = [&](std::size_t n) {
+    auto m = map::makeMap(o.map);
+    update::UpdateEngine engine;
+    const auto noop = [](const std::function<void()>& commit) { commit(); };
+    for (std::size_t i = 0; i < n; ++i) {
+      io::Scan sent = scans[i];
+      const ScanJob j = jobOf(scans[i], "x", 0);
+      sent.pose = io::poseFromQuaternion(j.position, j.quaternion);
+      m->advanceTime(static_cast<double>(receivedNs(i)) * 1e-9, noop);
+      engine.insert(*m, sent.worldPoints(), sent.origin());
+    }
+    return m;
+  };
+  std::string served;
+  {
+    MapService a(o);
+    submit(a, 0, 6);
+    ASSERT_EQ(a.execute(SnapshotCommand{}).status, Status::kOk);
+    submit(a, 6, 12);
+    served = otBytes(a);
+  }
+  const auto expected = offlineUpTo(12);
+  // Compared as booleans: a failure should not print two map files.
+  EXPECT_TRUE(served == map::encodeMap(*expected, map::OctomapFormat::kFull)) << "served = offline, decayed";
+  map::MapOptions no_decay = o.map;
+  no_decay.decay = {};
+  EXPECT_FALSE(served == map::encodeMap(*offline({scans.begin(), scans.begin() + 12}, no_decay),
+                                        map::OctomapFormat::kFull))
+      << "decay changed the map";
+  MapService b(o);
+  ASSERT_TRUE(b.recovery());
+  EXPECT_EQ(b.recovery()->snapshot_lsn, 6u);
+  EXPECT_TRUE(otBytes(b) == served) << "snapshot (with its map time) + journal replay";
+  submit(b, 12, 14);
+  EXPECT_TRUE(otBytes(b) == map::encodeMap(*offlineUpTo(14), map::OctomapFormat::kFull))
+      << "after the restart the map decays as the uninterrupted run would";
+}
+
 TEST(Restart, ResendsAreAppliedOnceAcrossRestarts) {
   TempDir tmp;
   const auto scans = simScans(4);

@@ -47,6 +47,18 @@ OptionTable mapOptions(map::MapOptions& o) {
   t.add("clamp-max", o.params.clamp_max, "upper clamping probability").range(0.0, 1.0).checkedBy([&o] {
     return o.params.validate();
   });
+  t.add("decay-s", o.decay.seconds_to_unknown,
+        "decay (grid only): seconds without observations for a cell at the upper clamp to become unknown; "
+        "every known cell relaxes toward unknown at clamp-max's log-odds over this time (0: off, the "
+        "OctoMap-equal map)")
+      .range(0.0, 1e7);
+  t.add("decay-step-s", o.decay.step_s,
+        "decay is applied in steps of this much map time (the scans' receive times in the server)")
+      .range(0.01, 3600.0)
+      .checkedBy([&o] {
+        if (o.decay.enabled() && o.backend != "grid") return std::string("--decay-s needs --backend grid");
+        return o.decay.validate();
+      });
   return t;
 }
 

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <vector>
 
 namespace densemap::map {
@@ -21,6 +22,35 @@ float updatedValue(float current, std::uint32_t nf, std::uint32_t nh, const LogO
   const bool known = !std::isnan(current);
   return applyCellUpdate(known ? current : 0.0f, nf, nh, lo);
 }
+
+/// Applies one block's evidence. Under batch semantics a cell gets one of three updates (free, hit, both),
+/// so the palette index an (old index, update) pair leads to is remembered: most cells cost a table
+/// lookup, not a search of the palette.
+void applyEvidence(PaletteBlock& b, const ScanEvidence& evidence, const EvidenceBlock& eb,
+                   const LogOdds& lo) {
+  constexpr std::uint16_t kNone = 0xFFFF;
+  std::array<std::array<std::uint16_t, PaletteBlock::kMaxPalette>, 4> memo;
+  auto forget = [&] {
+    for (auto& m : memo) m.fill(kNone);
+  };
+  forget();
+  eb.forEachEvidenceVoxel([&](int i) {
+    const auto [nf, nh] = evidence.counts(eb, i);
+    if (b.dense() || nf > 1 || nh > 1) {
+      if (!b.set(i, updatedValue(b.get(i), nf, nh, lo))) forget();  // the palette was renumbered
+      return;
+    }
+    const std::uint8_t old = b.indexOf(i);
+    std::uint16_t& next = memo[nf * 2 + nh][old];
+    if (next != kNone) {
+      b.setIndex(i, static_cast<std::uint8_t>(next));
+    } else if (b.set(i, updatedValue(b.paletteValue(old), nf, nh, lo))) {
+      next = b.dense() ? kNone : b.indexOf(i);
+    } else {
+      forget();  // the palette was renumbered
+    }
+  });
+}
 }  // namespace
 
 void GridMap::apply(const ScanEvidence& evidence) {
@@ -30,19 +60,14 @@ void GridMap::apply(const ScanEvidence& evidence) {
   evidence.forEachBlock([&](const EvidenceBlock& eb) {
     if (!eb.hasEvidence()) return;  // e.g. a block holding only culling-region cells
     auto& slot = blocks_[blockId(eb.base)];
-    if (!slot) slot = std::make_unique<Block>();
+    if (!slot) slot = newBlock();
     work.emplace_back(&eb, slot.get());
   });
   const LogOdds& lo = log_odds_;
 #pragma omp parallel for schedule(static)
   for (std::size_t w = 0; w < work.size(); ++w) {
     const EvidenceBlock& eb = *work[w].first;
-    Block& mb = *work[w].second;
-    eb.forEachEvidenceVoxel([&](int i) {
-      const auto [nf, nh] = evidence.counts(eb, i);
-      float& v = mb.value[static_cast<std::size_t>(i)];
-      v = updatedValue(v, nf, nh, lo);
-    });
+    applyEvidence(*work[w].second, evidence, eb, lo);
   }
   applyOverflow(evidence);
 }
@@ -52,9 +77,9 @@ void GridMap::applyOverflow(const ScanEvidence& evidence) {
   if (evidence.overflowCount() == 0) return;
   evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
     auto& slot = blocks_[blockId(k)];
-    if (!slot) slot = std::make_unique<Block>();
-    float& v = slot->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
-    v = updatedValue(v, nf, nh, log_odds_);
+    if (!slot) slot = newBlock();
+    const int i = voxelIndexInBlock(k);
+    slot->set(i, updatedValue(slot->get(i), nf, nh, log_odds_));
   });
 }
 
@@ -84,15 +109,12 @@ void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publ
     Staged& s = staged[w];
     auto it = blocks_.find(s.id);  // read-only lookups: safe in parallel
     if (it != blocks_.end()) {
-      s.copy->value = it->second->value;
+      *s.copy = *it->second;
     } else {
-      s.copy->value.fill(std::numeric_limits<float>::quiet_NaN());
+      s.copy->reset();
+      s.copy->time_s = newBlockTime();
     }
-    s.eb->forEachEvidenceVoxel([&](int i) {
-      const auto [nf, nh] = evidence.counts(*s.eb, i);
-      float& v = s.copy->value[static_cast<std::size_t>(i)];
-      v = updatedValue(v, nf, nh, lo);
-    });
+    applyEvidence(*s.copy, evidence, *s.eb, lo);
   }
   // Publish: swap the copies in (the old blocks become spares for the next scan).
   publish([&] {
@@ -109,6 +131,8 @@ void GridMap::applyPublished(const ScanEvidence& evidence, const Publisher& publ
 
 std::unique_ptr<OccupancyMap> GridMap::clone() const {
   auto copy = std::make_unique<GridMap>(resolution(), params_);
+  copy->decay_ = decay_;
+  copy->decay_clock_s_ = decay_clock_s_;
   copy->blocks_.reserve(blocks_.size());
   for (const auto& [id, block] : blocks_) copy->blocks_.emplace(id, std::make_unique<Block>(*block));
   return copy;
@@ -116,8 +140,40 @@ std::unique_ptr<OccupancyMap> GridMap::clone() const {
 
 void GridMap::setLogOdds(const VoxelKey& key, float log_odds) {
   auto& slot = blocks_[blockId(key)];
-  if (!slot) slot = std::make_unique<Block>();
-  slot->value[static_cast<std::size_t>(voxelIndexInBlock(key))] = log_odds;
+  if (!slot) slot = newBlock();
+  slot->set(voxelIndexInBlock(key), log_odds);
+}
+
+void GridMap::setDecay(const DecayOptions& decay) {
+  if (const std::string why = decay.validate(); !why.empty()) throw std::invalid_argument(why);
+  decay_ = decay;
+}
+
+void GridMap::setMapTime(double t_s) {
+  decay_clock_s_ = t_s;
+  for (auto& [id, b] : blocks_) b->time_s = newBlockTime();
+}
+
+bool GridMap::advanceTime(double now_s, const Publisher& publish) {
+  if (!decay_.enabled() || !std::isfinite(now_s)) return false;
+  if (std::isnan(decay_clock_s_)) {  // the first time given starts the clock
+    setMapTime(now_s);
+    return false;
+  }
+  if (now_s < decay_clock_s_ + decay_.step_s) return false;
+  // Linear in log-odds: a cell at the upper clamp reaches 0 after seconds_to_unknown (decay.h).
+  const double rate = static_cast<double>(log_odds_.max) / decay_.seconds_to_unknown;
+  publish([&] {
+    for (auto it = blocks_.begin(); it != blocks_.end();) {
+      Block& b = *it->second;
+      const auto amount = static_cast<float>(rate * (now_s - b.time_s));
+      if (amount > 0.0f) b.transformValues([&](float v) { return relaxedTowardUnknown(v, amount); });
+      b.time_s = now_s;
+      it = b.anyKnown() ? std::next(it) : blocks_.erase(it);  // a block with nothing known leaves memory
+    }
+    decay_clock_s_ = now_s;
+  });
+  return true;
 }
 
 const GridMap::Block* GridMap::findBlock(const VoxelKey& key) const {
@@ -128,7 +184,7 @@ const GridMap::Block* GridMap::findBlock(const VoxelKey& key) const {
 std::optional<float> GridMap::logOdds(const VoxelKey& key) const {
   const Block* b = findBlock(key);
   if (b == nullptr) return std::nullopt;
-  const float v = b->value[static_cast<std::size_t>(voxelIndexInBlock(key))];
+  const float v = b->get(voxelIndexInBlock(key));
   if (std::isnan(v)) return std::nullopt;
   return v;
 }
@@ -138,44 +194,53 @@ void GridMap::logOddsMany(std::span<const VoxelKey> keys, std::span<float> out) 
   // lookups of a chunk are independent, so their cache misses overlap instead of following one another
   // (1,000 random points on a kitti00 map: 1.5x faster, densemap-query-bench).
   constexpr std::size_t kChunk = 128;
-  std::array<const float*, kChunk> cell{};
+  std::array<const Block*, kChunk> block{};
+  std::array<int, kChunk> voxel{};
   for (std::size_t base = 0; base < keys.size(); base += kChunk) {
     const std::size_t n = std::min(kChunk, keys.size() - base);
     for (std::size_t i = 0; i < n; ++i) {
       const VoxelKey& k = keys[base + i];
-      const Block* b = findBlock(k);
-      cell[i] = b == nullptr ? nullptr : &b->value[static_cast<std::size_t>(voxelIndexInBlock(k))];
-      if (cell[i] != nullptr) __builtin_prefetch(cell[i]);
+      block[i] = findBlock(k);
+      voxel[i] = voxelIndexInBlock(k);
+      if (block[i] != nullptr) __builtin_prefetch(block[i]->addressOf(voxel[i]));
     }
     for (std::size_t i = 0; i < n; ++i)
-      out[base + i] = cell[i] == nullptr ? std::numeric_limits<float>::quiet_NaN() : *cell[i];
+      out[base + i] = block[i] == nullptr ? std::numeric_limits<float>::quiet_NaN() : block[i]->get(voxel[i]);
   }
 }
 
 bool GridMap::isFullyFree(const VoxelKey& key) const {
   const Block* b = findBlock(key);
   if (b == nullptr) return false;
-  const float v = b->value[static_cast<std::size_t>(voxelIndexInBlock(key))];
+  const float v = b->get(voxelIndexInBlock(key));
   return v <= log_odds_.min;  // false for NaN (unknown)
 }
 
 std::size_t GridMap::knownCells() const {
   std::size_t n = 0;
-  for (const auto& [id, b] : blocks_)
-    for (float v : b->value) n += std::isnan(v) ? 0 : 1;
+  for (const auto& [id, b] : blocks_) n += b->knownCount();
+  return n;
+}
+
+std::size_t GridMap::denseBlockCount() const {
+  std::size_t n = 0;
+  for (const auto& [id, b] : blocks_) n += b->dense() ? 1 : 0;
   return n;
 }
 
 std::size_t GridMap::memoryBytes() const {
-  // Block payload plus a rough per-entry cost of the hash map (node, bucket, pointer).
-  return blocks_.size() * (sizeof(Block) + 48) + blocks_.bucket_count() * sizeof(void*);
+  // Blocks (indices, palettes, dense fallbacks) plus a rough per-entry cost of the hash map (node, pointer)
+  // and its buckets.
+  std::size_t bytes = blocks_.size() * 48 + blocks_.bucket_count() * sizeof(void*);
+  for (const auto& [id, b] : blocks_) bytes += b->memoryBytes();
+  return bytes;
 }
 
 void GridMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) const {
   for (const auto& [id, b] : blocks_) {
     const VoxelKey bk = VoxelKey::fromPacked(id);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      const float v = b->value[static_cast<std::size_t>(i)];
+      const float v = b->get(i);
       if (std::isnan(v)) continue;
       const VoxelKey k = cellKey(bk, i);
       f(k, v);
@@ -195,7 +260,7 @@ void GridMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
   auto visitBlock = [&](std::uint64_t id, const Block& b) {
     const VoxelKey bk = VoxelKey::fromPacked(id);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      const float v = b.value[static_cast<std::size_t>(i)];
+      const float v = b.get(i);
       if (std::isnan(v)) continue;
       const VoxelKey k = cellKey(bk, i);
       if (inBox(k, lo, hi)) f(k, v);
@@ -236,11 +301,10 @@ std::size_t GridMap::eraseBox(const VoxelKey& lo, const VoxelKey& hi) {
     Block& b = *it->second;
     bool any_left = false;
     for (int i = 0; i < kBlockVoxels; ++i) {
-      float& v = b.value[static_cast<std::size_t>(i)];
-      if (std::isnan(v)) continue;
+      if (std::isnan(b.get(i))) continue;
       const VoxelKey k = cellKey(bk, i);
       if (inBox(k, lo, hi)) {
-        v = std::numeric_limits<float>::quiet_NaN();
+        b.set(i, std::numeric_limits<float>::quiet_NaN());
         ++erased;
       } else {
         any_left = true;
@@ -262,9 +326,9 @@ bool GridMap::identical(const GridMap& other, std::string* why) const {
   for (const auto& [id, b] : blocks_) {
     auto it = other.blocks_.find(id);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      const float va = b->value[static_cast<std::size_t>(i)];
-      const float vb = it == other.blocks_.end() ? std::numeric_limits<float>::quiet_NaN()
-                                                 : it->second->value[static_cast<std::size_t>(i)];
+      const float va = b->get(i);
+      const float vb =
+          it == other.blocks_.end() ? std::numeric_limits<float>::quiet_NaN() : it->second->get(i);
       if (std::bit_cast<std::uint32_t>(va) != std::bit_cast<std::uint32_t>(vb)) {
         return fail("cell differs in block " + std::to_string(id) + " voxel " + std::to_string(i) + ": " +
                     std::to_string(va) + " vs " + std::to_string(vb));

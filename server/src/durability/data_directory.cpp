@@ -27,6 +27,8 @@ std::string mapFingerprint(const map::MapOptions& m, const update::UpdateOptions
       "max_range={}",
       m.backend, m.resolution, p.prob_hit, p.prob_miss, p.clamp_min, p.clamp_max, p.occupied_threshold,
       map::toString(u.semantics), u.max_range);
+  if (m.decay.enabled())
+    s += fmt::format(" decay={} decay_step={}", m.decay.seconds_to_unknown, m.decay.step_s);
   if (d.method != "none") {
     s += fmt::format(
         " dense={} dense_resolution={} free_sample={} free_voxel={} dense_max_range={} seed={} "

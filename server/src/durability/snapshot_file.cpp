@@ -1,5 +1,7 @@
 #include "densemap/server/durability/snapshot_file.h"
 
+#include <cmath>
+
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -19,7 +21,7 @@ constexpr std::uint64_t kMagic = 0x31305041534D4D44ull;     // "DMMSAP01"
 constexpr std::uint64_t kEndMagic = 0x444E4550414E5344ull;  // "DSNAPEND"
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kFooterBytes = 8 + 4 + 8;
-enum Tag : std::uint32_t { kProgress = 1, kMap = 2, kDense = 3 };
+enum Tag : std::uint32_t { kProgress = 1, kMap = 2, kDense = 3, kMapTime = 4 };
 
 const char* tagName(std::uint32_t t) {
   switch (t) {
@@ -29,6 +31,8 @@ const char* tagName(std::uint32_t t) {
       return "map";
     case kDense:
       return "dense layer";
+    case kMapTime:
+      return "map time";
   }
   return "unknown";
 }
@@ -43,9 +47,14 @@ std::string encodeSnapshot(const SnapshotContents& s) {
   w.put(s.lsn);
   w.put(s.created_ns);
   w.string(s.fingerprint);
+  // The map time (decay's clock) is optional and last, so snapshots without decay read as before.
+  std::string map_time;
+  if (s.map_time_s) util::ByteWriter(map_time).put(*s.map_time_s);
   for (auto [tag, bytes] : {std::pair<std::uint32_t, const std::string*>{kProgress, &s.progress},
                             {kMap, &s.map},
-                            {kDense, &s.dense}}) {
+                            {kDense, &s.dense},
+                            {kMapTime, &map_time}}) {
+    if (tag == kMapTime && bytes->empty()) continue;
     w.put(tag);
     w.put(static_cast<std::uint64_t>(bytes->size()));
     w.put(crc32Of(*bytes));
@@ -79,7 +88,8 @@ SnapshotContents decodeSnapshot(std::string_view bytes) {
   s.lsn = r.get<std::uint64_t>("lsn");
   s.created_ns = r.get<std::int64_t>("created");
   s.fingerprint = r.string("fingerprint", 1 << 16);
-  for (std::uint32_t want : {kProgress, kMap, kDense}) {
+  for (std::uint32_t want : {kProgress, kMap, kDense, kMapTime}) {
+    if (want == kMapTime && r.done()) break;
     const std::size_t at = r.offset();
     const auto tag = r.get<std::uint32_t>("section tag");
     if (tag != want)
@@ -90,6 +100,14 @@ SnapshotContents decodeSnapshot(std::string_view bytes) {
     std::string_view data(r.take(n, tagName(tag)), n);
     if (crc32Of(data) != crc)
       throw util::FormatError(fmt::format("the {} section fails its checksum", tagName(tag)), body);
+    if (tag == kMapTime) {
+      util::ByteReader t(data, body);
+      const auto v = t.get<double>("map time");
+      if (!t.done() || !std::isfinite(v))
+        throw util::FormatError("the map time is not one finite number", body);
+      s.map_time_s = v;
+      continue;
+    }
     (tag == kProgress ? s.progress : tag == kMap ? s.map : s.dense).assign(data);
   }
   if (!r.done()) r.fail("bytes after the snapshot's sections");

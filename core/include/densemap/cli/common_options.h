@@ -25,7 +25,7 @@ OptionTable sourceOptions(SourceSelection& selection);
 void addFrameOptions(OptionTable& table, ros2::FrameOptions& frames);
 /// --log-level.
 OptionTable loggingOptions(std::string& level);
-/// --backend, --resolution, --prob-hit, --prob-miss, --clamp-min, --clamp-max.
+/// --backend, --resolution, --prob-hit, --prob-miss, --clamp-min, --clamp-max, --decay-s, --decay-step-s.
 OptionTable mapOptions(map::MapOptions& options);
 /// --method, --semantics, --max-range.
 OptionTable updateOptions(update::UpdateOptions& options);

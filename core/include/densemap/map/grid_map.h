@@ -1,24 +1,25 @@
-// A uniform 3D grid stored as hashed 8^3 blocks of dense voxels: no allocation per voxel, and a whole
-// block is updated at once from the scan's evidence.
+// A uniform 3D grid stored as hashed 16^3 blocks of voxels (palette_block.h: a byte per voxel into the
+// block's distinct values): no allocation per voxel, and a whole block is updated at once from the scan's
+// evidence.
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <unordered_map>
 #include <vector>
 
+#include "densemap/map/decay.h"
 #include "densemap/map/occupancy_map.h"
+#include "densemap/map/palette_block.h"
 
 namespace densemap::map {
 
 class GridMap : public OccupancyMap {
  public:
-  struct Block {
-    /// Log-odds per voxel; NaN marks a voxel never observed.
-    std::array<float, kBlockVoxels> value;
-    Block() { value.fill(std::numeric_limits<float>::quiet_NaN()); }
-  };
+  /// Log-odds per voxel; NaN marks a voxel never observed.
+  using Block = PaletteBlock;
 
   GridMap(double resolution, const OccupancyParams& params = {}) : OccupancyMap(resolution, params) {}
 
@@ -36,6 +37,15 @@ class GridMap : public OccupancyMap {
                         const std::function<void(const VoxelKey&, float)>& f) const override;
   std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
   void clear() override { blocks_.clear(); }
+  bool advanceTime(double now_s, const Publisher& publish) override;
+
+  /// Turns decay on (or off, with seconds_to_unknown 0). Throws std::invalid_argument when invalid.
+  void setDecay(const DecayOptions& decay);
+  const DecayOptions& decay() const { return decay_; }
+  /// Every block's values are current at the map time (snapshots keep it, so a restart decays as the
+  /// uninterrupted run would).
+  double mapTime() const override { return decay_clock_s_; }
+  void setMapTime(double t_s) override;
   std::unique_ptr<OccupancyMap> clone() const override;
   /// Sets one cell's log-odds (loading a saved map; not for scans, which go through apply()).
   void setLogOdds(const VoxelKey& key, float log_odds);
@@ -45,6 +55,8 @@ class GridMap : public OccupancyMap {
 
   const Block* findBlock(const VoxelKey& key) const;
   std::size_t blockCount() const { return blocks_.size(); }
+  /// Blocks that keep a float per voxel (more than 256 distinct values at once; palette_block.h).
+  std::size_t denseBlockCount() const;
 
  private:
   void applyOverflow(const ScanEvidence& evidence);
@@ -54,6 +66,16 @@ class GridMap : public OccupancyMap {
                      static_cast<geometry::KeyCoord>(key[2] >> kBlockShift)}}
         .packed();
   }
+  /// A new block is current at the last decay step (it takes the whole next step's decay).
+  double newBlockTime() const { return std::isnan(decay_clock_s_) ? 0.0 : decay_clock_s_; }
+  std::unique_ptr<Block> newBlock() const {
+    auto b = std::make_unique<Block>();
+    b->time_s = newBlockTime();
+    return b;
+  }
+
+  DecayOptions decay_{};
+  double decay_clock_s_ = std::numeric_limits<double>::quiet_NaN();
   std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
   std::vector<std::unique_ptr<Block>> spare_;  // blocks swapped out by applyPublished, reused as copies
 };

@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "densemap/map/decay.h"
 #include "densemap/map/occupancy_map.h"
 #include "densemap/map/occupancy_params.h"
 
@@ -13,6 +14,7 @@ struct MapOptions {
   std::string backend = "grid";  ///< "grid" (hashed dense blocks, fastest) or "octree" (OctoMap's OcTree)
   double resolution = 0.2;       ///< voxel edge in metres
   OccupancyParams params{};      ///< OctoMap's sensor model defaults
+  DecayOptions decay{};          ///< off by default; grid backend only (its time is kept per block)
 };
 
 /// Throws std::invalid_argument naming the option that is wrong.

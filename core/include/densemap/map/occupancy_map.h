@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
@@ -68,6 +69,19 @@ class OccupancyMap {
   virtual std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) = 0;
 
   virtual void clear() = 0;
+
+  /// Map time moves on to `now_s` (seconds; the server uses the scans' receive times, so a journal replay
+  /// repeats it). With decay on (decay.h, grid backend only) every whole step relaxes each known cell
+  /// toward unknown, inside `publish`. Earlier times are ignored. Returns true when the cells changed.
+  virtual bool advanceTime(double now_s, const Publisher& publish) {
+    (void)now_s;
+    (void)publish;
+    return false;
+  }
+  /// The map time of the last decay step; NaN without decay or before the first time was given.
+  virtual double mapTime() const { return std::numeric_limits<double>::quiet_NaN(); }
+  /// Restores mapTime() (a snapshot, a loaded map replacing this one): every cell is current at it.
+  virtual void setMapTime(double t_s) { (void)t_s; }
 
   /// A deep copy with the same cells and sensor model (snapshots: a save writes from the copy while the
   /// map goes on changing).

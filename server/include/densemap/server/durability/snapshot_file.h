@@ -2,7 +2,8 @@
 // DATA_DIR/snapshots/<LSN, 20 digits>.dms:
 //
 //   magic u64 | version u32 | lsn u64 | created_ns i64 | fingerprint | sections | footer
-//   section = tag u32 | length u64 | CRC-32 u32 | bytes     (progress, map as .ot, dense layer state)
+//   section = tag u32 | length u64 | CRC-32 u32 | bytes     (progress, map as .ot, dense layer state,
+//                                                           then, with decay on only, the map time f64)
 //   footer  = length of everything before u64 | CRC-32 of it u32 | end magic u64
 //
 // The footer makes a truncated file detectable; each section's CRC says which part is damaged.
@@ -23,6 +24,9 @@ struct SnapshotContents {
   std::string progress;  ///< RobotProgress::encode()
   std::string map;       ///< the exact map as an OctoMap .ot file (log-odds; octree: node for node)
   std::string dense;     ///< KernelLayer::saveState(), empty without a dense layer
+  /// The map's time (decay's clock, OccupancyMap::mapTime) when decay is on: a restart then decays as the
+  /// uninterrupted run would. An optional last section; snapshots without it read as before.
+  std::optional<double> map_time_s;
 };
 
 std::string encodeSnapshot(const SnapshotContents& s);
