@@ -138,12 +138,7 @@ int main(int argc, char** argv) {
     // Part 2.
     const auto src = io::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
-    std::vector<io::Scan> scans;
-    cli::Progress loading("loading", range.last - range.first + 1);
-    for (std::size_t i = range.first; i <= range.last; ++i) {
-      scans.push_back(src->read(i));
-      loading.step(i - range.first + 1);
-    }
+    const std::vector<cli::WorldScan> scans = cli::loadScans(*src, range);
     std::printf(
         "2. %s, scans %zu:%zu, %.2f m grid, %s, %.1f s between scans: ms per scan (median of rounds)\n",
         src->describe().c_str(), range.first, range.last, map_options.resolution,
@@ -163,7 +158,7 @@ int main(int argc, char** argv) {
           const auto ts = util::wallClockNs();
           if (m->advanceTime(static_cast<double>(i) * period_s, kNoLock))
             steps += static_cast<double>(util::wallClockNs() - ts) / 1e6;
-          engine.insert(*m, scans[i].worldPoints(), scans[i].origin());
+          engine.insert(*m, scans[i].points, scans[i].origin);
         }
         const double ms =
             static_cast<double>(util::wallClockNs() - t0) / 1e6 / static_cast<double>(scans.size());

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#include "densemap/util/byte_codec.h"
 
 namespace densemap::map {
 
@@ -14,6 +17,7 @@ PaletteBlock& PaletteBlock::operator=(const PaletteBlock& other) {
   if (this == &other) return *this;
   index_ = other.index_;
   time_s = other.time_s;
+  last_scan = other.last_scan;
   palette_ =
       other.palette_;  // reuses this block's capacity: the staging copies of every scan do not allocate
   if (other.dense_) {
@@ -115,6 +119,57 @@ bool PaletteBlock::anyKnown() const {
 
 std::size_t PaletteBlock::memoryBytes() const {
   return sizeof(PaletteBlock) + palette_.capacity() * sizeof(float) + (dense_ ? sizeof(*dense_) : 0);
+}
+
+namespace {
+constexpr std::uint32_t kBlockMagic = 0x31424D44;  // "DMB1"
+enum Mode : std::uint8_t { kPalette = 0, kDense = 1 };
+}  // namespace
+
+std::string PaletteBlock::encode() const {
+  std::string out;
+  out.reserve(dense_ ? 32 + sizeof(*dense_) : 32 + palette_.size() * sizeof(float) + index_.size());
+  util::ByteWriter w(out);
+  w.put(kBlockMagic);
+  w.put(time_s);
+  w.put(last_scan);
+  if (dense_) {
+    w.put(static_cast<std::uint8_t>(kDense));
+    w.bytes(dense_->data(), sizeof(*dense_));
+  } else {
+    w.put(static_cast<std::uint8_t>(kPalette));
+    w.put(static_cast<std::uint16_t>(palette_.size()));
+    w.bytes(palette_.data(), palette_.size() * sizeof(float));
+    w.bytes(index_.data(), index_.size());
+  }
+  return out;
+}
+
+PaletteBlock PaletteBlock::decode(std::string_view bytes) {
+  util::ByteReader r(bytes);
+  if (r.get<std::uint32_t>("block magic") != kBlockMagic) r.fail("not a densemap map block");
+  PaletteBlock b;
+  b.time_s = r.get<double>("block time");
+  if (!std::isfinite(b.time_s)) r.fail("the block's time is not finite");
+  b.last_scan = r.get<std::uint64_t>("block's last scan");
+  const auto mode = r.get<std::uint8_t>("block mode");
+  if (mode == kDense) {
+    b.dense_ = std::make_unique<std::array<float, kBlockVoxels>>();
+    std::memcpy(b.dense_->data(), r.take(sizeof(*b.dense_), "block values"), sizeof(*b.dense_));
+  } else if (mode == kPalette) {
+    const auto n = r.get<std::uint16_t>("palette size");
+    if (n < 1 || n > kMaxPalette) r.fail("palette size " + std::to_string(n) + " is not 1..256");
+    b.palette_.resize(n);
+    std::memcpy(b.palette_.data(), r.take(n * sizeof(float), "palette"), n * sizeof(float));
+    if (!std::isnan(b.palette_[0])) r.fail("the palette's first entry is not 'unknown'");
+    std::memcpy(b.index_.data(), r.take(b.index_.size(), "indices"), b.index_.size());
+    for (std::uint8_t idx : b.index_)
+      if (idx >= n) r.fail("an index past the palette's " + std::to_string(n) + " entries");
+  } else {
+    r.fail("block mode " + std::to_string(mode));
+  }
+  if (!r.done()) r.fail("bytes after the block");
+  return b;
 }
 
 }  // namespace densemap::map

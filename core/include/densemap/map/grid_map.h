@@ -7,7 +7,9 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <span>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "densemap/map/decay.h"
@@ -36,7 +38,10 @@ class GridMap : public OccupancyMap {
   void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
                         const std::function<void(const VoxelKey&, float)>& f) const override;
   std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override;
-  void clear() override { blocks_.clear(); }
+  void clear() override {
+    blocks_.clear();
+    out_of_memory_.clear();
+  }
   bool advanceTime(double now_s, const Publisher& publish) override;
 
   /// Turns decay on (or off, with seconds_to_unknown 0). Throws std::invalid_argument when invalid.
@@ -54,6 +59,25 @@ class GridMap : public OccupancyMap {
   bool identical(const GridMap& other, std::string* why = nullptr) const;
 
   const Block* findBlock(const VoxelKey& key) const;
+  static std::uint64_t blockIdOf(const VoxelKey& key) { return blockId(key); }
+
+  /// Blocks out of memory (issue 22's rolling window and memory cap): takeBlock removes a block and
+  /// remembers that its cells exist elsewhere; putBlock brings it back. A scan must not change a block
+  /// that is out of memory (apply throws std::logic_error: bring it back first, outOfMemoryIn finds them),
+  /// and queries answer "unknown" there unless the caller checks inMemory.
+  std::unique_ptr<Block> takeBlock(std::uint64_t id);
+  void putBlock(std::uint64_t id, std::unique_ptr<Block> block);
+  bool inMemory(const VoxelKey& key) const { return !out_of_memory_.contains(blockId(key)); }
+  std::size_t outOfMemoryCount() const { return out_of_memory_.size(); }
+  /// Out-of-memory blocks with a cell in [lo, hi].
+  std::vector<std::uint64_t> outOfMemoryIn(const VoxelKey& lo, const VoxelKey& hi) const;
+  /// In-memory blocks whose centre is farther than `radius` metres from every one of `centres`.
+  std::vector<std::uint64_t> blocksFartherThan(std::span<const geometry::Vec3f> centres, double radius) const;
+  /// The least recently updated in-memory blocks, oldest first, until their bytes reach `bytes`; blocks
+  /// the last scan changed are never among them.
+  std::vector<std::uint64_t> leastRecentlyUpdated(std::size_t bytes) const;
+  /// Scans applied so far (PaletteBlock::last_scan counts in these).
+  std::uint64_t scansApplied() const { return scans_; }
   std::size_t blockCount() const { return blocks_.size(); }
   /// Blocks that keep a float per voxel (more than 256 distinct values at once; palette_block.h).
   std::size_t denseBlockCount() const;
@@ -73,10 +97,14 @@ class GridMap : public OccupancyMap {
     b->time_s = newBlockTime();
     return b;
   }
+  /// Throws std::logic_error when block `id` is out of memory (a scan would overwrite what is stored).
+  void requireInMemory(std::uint64_t id) const;
 
   DecayOptions decay_{};
   double decay_clock_s_ = std::numeric_limits<double>::quiet_NaN();
   std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
+  std::unordered_set<std::uint64_t> out_of_memory_;
+  std::uint64_t scans_ = 0;
   std::vector<std::unique_ptr<Block>> spare_;  // blocks swapped out by applyPublished, reused as copies
 };
 

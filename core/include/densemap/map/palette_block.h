@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "densemap/map/scan_evidence.h"
@@ -34,10 +36,16 @@ class PaletteBlock {
     const auto u = static_cast<std::size_t>(i);
     return dense_ ? (*dense_)[u] : palette_[index_[u]];
   }
-  /// Address of voxel i's value (for prefetching; valid until the block changes).
-  const void* addressOf(int i) const {
+  /// Where voxel i's palette index is (or its float, when dense): the first load of get(), to prefetch.
+  const void* indexAddress(int i) const {
     const auto u = static_cast<std::size_t>(i);
     return dense_ ? static_cast<const void*>(&(*dense_)[u]) : static_cast<const void*>(&index_[u]);
+  }
+  /// Where voxel i's value is: the second load of get() (reads the index), to prefetch. Valid until the
+  /// block changes.
+  const float* valueAddress(int i) const {
+    const auto u = static_cast<std::size_t>(i);
+    return dense_ ? &(*dense_)[u] : &palette_[index_[u]];
   }
 
   /// Sets voxel i. Returns false when the palette's numbering changed (it was full and was compacted, or
@@ -65,11 +73,20 @@ class PaletteBlock {
 
   /// Map time (s) this block's values are current at: decay is applied up to here (decay.h).
   double time_s = 0.0;
+  /// The map's scan count when a scan last changed this block (the least recently updated leave memory
+  /// first under a memory cap).
+  std::uint64_t last_scan = 0;
 
   std::size_t knownCount() const;
   bool anyKnown() const;
   /// Bytes this block owns (the byte indices or floats, and the palette's capacity).
   std::size_t memoryBytes() const;
+
+  /// The block as bytes (a block leaving memory, issue 22's rolling window): its time, then its palette
+  /// and indices, or its floats. Values bit for bit.
+  std::string encode() const;
+  /// Throws util::FormatError naming what is wrong (a bad size, mode or index, a non-finite time).
+  static PaletteBlock decode(std::string_view bytes);
 
  private:
   /// Drops palette entries no voxel uses; returns false when all 256 are in use.
