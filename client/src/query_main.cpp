@@ -32,7 +32,10 @@ std::array<float, 3> parseXyz(const std::string& s) {
 }
 
 std::string stateName(std::uint8_t s) {
-  return s == msg::CELL_OCCUPIED ? "occupied" : s == msg::CELL_FREE ? "free" : "unknown";
+  return s == msg::CELL_OCCUPIED        ? "occupied"
+         : s == msg::CELL_FREE          ? "free"
+         : s == msg::CELL_NOT_IN_MEMORY ? "not in memory (stored)"
+                                        : "unknown";
 }
 
 json statsJson(const msg::MapStatistics& s) {

@@ -1,6 +1,7 @@
 #include "densemap/server/map_service.h"
 
 #include <cmath>
+#include <filesystem>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -39,9 +40,18 @@ MapService::MapService(ServiceOptions options)
   std::vector<std::unique_ptr<PipelineStage>> stages;
   if (options_.densify.method != "none")
     stages.push_back(std::make_unique<DensifyStage>(options_.densify, makeUpsampler(options_.densify)));
+  if (options_.window.enabled()) {
+    std::unique_ptr<durability::BlockStore> blocks;
+    if (options_.window.store)
+      blocks = std::make_unique<durability::BlockStore>(std::filesystem::path(options_.data_dir) / "blocks");
+    MapWindowOptions w = options_.window;
+    w.snapshots = options_.durability.journal;
+    window_ = std::make_unique<MapWindow>(w, std::move(blocks));
+  }
   auto occupancy = std::make_unique<OccupancyStage>(
       *store_, options_.update,
-      resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice));
+      resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice),
+      window_.get());
   std::unique_ptr<DenseStage> dense;
   if (auto layer = dense::makeDenseLayer(options_.dense, options_.map.resolution)) {
     dense_store_ = std::make_unique<DenseStore>(std::move(layer));
@@ -77,6 +87,14 @@ std::unique_ptr<durability::JournalStage> MapService::recoverInto(OccupancyStage
   auto load = [&](const du::SnapshotContents& s) {
     store_->replace(map::decodeMap(s.map, options_.map));
     if (s.map_time_s) store_->writerView().setMapTime(*s.map_time_s);
+    if (!s.window.empty()) {
+      auto* grid = dynamic_cast<map::GridMap*>(&store_->writerView());
+      if (!window_ || !grid)
+        throw std::runtime_error(
+            "the snapshot has map blocks stored out of memory; start the server with "
+            "the same --window-radius / --max-map-mb settings");
+      window_->restoreState(s.window, *grid);
+    }
     if (dense_store_) {
       if (s.dense.empty()) throw std::runtime_error("the snapshot has no dense layer");
       dense_store_->write([&](dense::KernelLayer& layer) { layer.restoreState(s.dense); });
@@ -123,6 +141,7 @@ std::unique_ptr<durability::JournalStage> MapService::recoverInto(OccupancyStage
       writer->rotate();  // the replayed records end in the old segment, which the snapshot removes
       const du::SnapshotContents s = snapshotOfLayers(writer->lastLsn(), progress.encode());
       const std::uint64_t bytes = data_dir_->writeSnapshot(s);
+      if (window_) window_->snapshotWritten(s.window);
       last_snapshot_lsn_ = s.lsn;
       last_snapshot_bytes_ = bytes;
       ++snapshots_written_;
@@ -149,6 +168,7 @@ durability::SnapshotContents MapService::snapshotOfLayers(std::uint64_t lsn, std
     s.map = map::encodeMap(m, map::OctomapFormat::kFull);
     if (!std::isnan(m.mapTime())) s.map_time_s = m.mapTime();
   });
+  if (window_) s.window = window_->snapshotState();  // at start-up, before the writer thread runs
   if (dense_store_)
     s.dense = dense_store_->read([](const dense::KernelLayer& l, std::uint64_t) { return l.saveState(); });
   return s;
@@ -205,8 +225,10 @@ CommandResult MapService::snapshot() {
   s.map = map::encodeMap(*change->snapshot, map::OctomapFormat::kFull);
   if (!std::isnan(change->snapshot->mapTime())) s.map_time_s = change->snapshot->mapTime();
   s.dense = std::move(change->dense_state);
+  s.window = std::move(change->window_state);
   try {
     last_snapshot_bytes_ = data_dir_->writeSnapshot(s);
+    if (window_) window_->snapshotWritten(s.window);
   } catch (const std::exception& e) {
     ++snapshot_failures_;
     r.status = Status::kFailed;

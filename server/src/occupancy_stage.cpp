@@ -1,5 +1,7 @@
 #include "densemap/server/occupancy_stage.h"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "densemap/server/box_keys.h"
@@ -32,6 +34,30 @@ StageResult OccupancyStage::apply(ScanJob& job) {
     store_.write([&](map::OccupancyMap&) { commit(); });
   };
   store_.writerView().advanceTime(static_cast<double>(job.received_ns) * 1e-9, publish_decay);
+  auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr;
+  if (grid != nullptr) {
+    // The stored blocks this scan's rays can reach come back first, so it updates their real values.
+    geometry::VoxelKey lo, hi;
+    if (grid->converter().toKey(job.scan.origin(), lo)) {
+      hi = lo;
+      for (const auto& p : world) {
+        geometry::VoxelKey k;
+        if (!grid->converter().toKey(p, k)) continue;  // the engine skips these points too
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], k[a]);
+          hi[a] = std::max(hi[a], k[a]);
+        }
+      }
+      try {
+        window_->bringBack(*grid, lo, hi, publish_decay);
+      } catch (const std::exception& e) {
+        return StageResult::reject(
+            fmt::format("a stored map block this scan reaches cannot be read ({}); the scan is refused so it "
+                        "does not overwrite the stored cells",
+                        e.what()));
+      }
+    }
+  }
   std::uint64_t version = 0;
   const std::optional<update::UpdateStats> stats = engine_.insert(
       store_.writerView(), world, job.scan.origin(), [&](const std::function<void()>& publish) {
@@ -41,6 +67,7 @@ StageResult OccupancyStage::apply(ScanJob& job) {
   if (!stats) {  // validateScan checks the origin first; kept so a missed case is a rejection, not a crash
     return StageResult::reject("the sensor origin lies outside the map's key range");
   }
+  if (grid != nullptr) window_->afterScan(*grid, job.robot_id, job.scan.origin(), publish_decay);
   job.points_rejected += static_cast<std::uint32_t>(stats->rejected);
   job.map_version = version;
   job.in_map_ns = util::wallClockNs();
@@ -53,6 +80,10 @@ void OccupancyStage::applyChange(MapChange& change) {
   reportingErrors(r, [&] {
     if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
       const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
+      if (auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr)
+        window_->bringBack(*grid, lo, hi, [&](const std::function<void()>& commit) {
+          store_.write([&](map::OccupancyMap&) { commit(); });
+        });  // the box's stored cells are forgotten too
       store_.write([&](map::OccupancyMap& m) { r.cells_changed = m.eraseBox(lo, hi); });
       r.message = fmt::format("cleared {} cells", r.cells_changed);
     } else if (std::holds_alternative<ResetCommand>(change.command)) {
@@ -60,17 +91,21 @@ void OccupancyStage::applyChange(MapChange& change) {
         r.cells_changed = m.knownCells();
         m.clear();
       });
+      if (window_) window_->forgetAll();
       r.message = fmt::format("reset: forgot {} cells", r.cells_changed);
     } else if (std::holds_alternative<LoadCommand>(change.command)) {
       r.cells_changed = change.loaded->knownCells();
       change.loaded->setMapTime(store_.writerView().mapTime());  // decay's clock goes on
       store_.replace(std::move(change.loaded));
+      if (window_) window_->forgetAll();
     } else if (std::holds_alternative<SaveCommand>(change.command) ||
                std::holds_alternative<SnapshotCommand>(change.command)) {
       // The writer is the map's only writer, so it copies without the lock: readers go on meanwhile and
       // only the update waits for the copy (measured: snapshot_ms).
       const auto t0 = std::chrono::steady_clock::now();
       change.snapshot = store_.writerView().clone();
+      if (window_ && std::holds_alternative<SnapshotCommand>(change.command))
+        change.window_state = window_->snapshotState();
       change.snapshot_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }

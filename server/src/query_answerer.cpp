@@ -1,5 +1,7 @@
 #include "densemap/server/query_answerer.h"
 
+#include "densemap/map/grid_map.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -220,11 +222,15 @@ void QueryAnswerer::points(const PointsQuery& q, Answer& a) {
     }
     m.logOddsMany(keys, log_odds);  // one batch: the lookups' cache misses overlap
     const float threshold = map::OccupancyParams::logOdds(m.params().occupied_threshold);
+    // With a map window, a cell of a block stored out of memory is not unknown: say so (issue 22).
+    const auto* grid = dynamic_cast<const map::GridMap*>(&m);
+    const bool some_out = grid != nullptr && grid->outOfMemoryCount() > 0;
     for (std::size_t i = 0; i < n; ++i) {
       const float v = log_odds[i];
       if (!valid[i] || std::isnan(v)) {
         out.probabilities[i] = 0.5f;
-        out.states[i] = CellState::kUnknown;
+        out.states[i] =
+            valid[i] && some_out && !grid->inMemory(keys[i]) ? CellState::kNotInMemory : CellState::kUnknown;
       } else {
         out.probabilities[i] = probability(v);
         out.states[i] = v >= threshold ? CellState::kOccupied : CellState::kFree;

@@ -51,6 +51,27 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         .range(0.0, 100.0);
   }
   {
+    cli::OptionTable& t = tables.emplace_back(
+        "Map memory (grid backend): a rolling window and a cap; blocks that leave come back when a scan "
+        "reaches them");
+    t.add("window-radius", o.window.radius_m,
+          "map blocks farther than this (metres) from every robot's latest sensor position leave memory "
+          "after each scan (0: off); make it at least the sensor's range, or blocks come and go every scan")
+        .range(0.0, 1e6);
+    t.add("max-map-mb", o.window.max_map_mb,
+          "when the exact map's memory passes this many MB, the least recently updated blocks leave it, "
+          "down to 90% (0: no cap)")
+        .range(0.0, 1e7);
+    t.add("keep-evicted-blocks", o.window.store,
+          "true: blocks that leave memory are kept in DATA_DIR/blocks and load again when a scan reaches "
+          "them (the map stays the map of every scan); false: they are forgotten")
+        .checkedBy([&o] {
+          if (o.window.enabled() && o.map.backend != "grid")
+            return std::string("--window-radius and --max-map-mb need --backend grid");
+          return std::string();
+        });
+  }
+  {
     cli::OptionTable& t = tables.emplace_back("Pipeline");
     t.add("robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
         .range(1, 100000);

@@ -1,11 +1,14 @@
 // libFuzzer target for a snapshot as densemap-server loads it at start-up: the file's framing and sections
-// (decodeSnapshot, with the optional map time of decay), the robots' progress (RobotProgress::decode) and the
+// (decodeSnapshot, with the optional map time of decay and the map window's state: MapWindow::restoreState),
+// the robots' progress (RobotProgress::decode) and the
 // dense layer's state (KernelLayer::restoreState). Each must refuse damage with util::FormatError, and a
 // refused restore must leave the layer as it was.
 #include <cstdlib>
 #include <string_view>
 
 #include "densemap/dense/dense_layer_factory.h"
+#include "densemap/map/grid_map.h"
+#include "densemap/server/map_window.h"
 #include "densemap/server/durability/robot_progress.h"
 #include "densemap/server/durability/snapshot_file.h"
 #include "densemap/util/byte_codec.h"
@@ -26,6 +29,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const du::RobotProgress p = du::RobotProgress::decode(bytes);
     if (du::RobotProgress::decode(p.encode()) != p) std::abort();  // what decodes, encodes back the same
   } catch (const densemap::util::FormatError&) {
+  }
+  try {
+    densemap::server::MapWindow window({20.0, 0.0, false}, nullptr);
+    densemap::map::GridMap grid(0.2);
+    window.restoreState(bytes, grid);  // a dropping window: a state naming stored blocks is refused
+  } catch (const densemap::util::FormatError&) {
+  } catch (const std::runtime_error&) {
   }
   static const auto layer = [] {
     densemap::dense::DenseLayerOptions o;

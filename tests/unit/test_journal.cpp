@@ -263,6 +263,21 @@ TEST(SnapshotFile, TheMapTimeOfDecayIsAnOptionalLastSection) {
   }
 }
 
+TEST(SnapshotFile, TheMapWindowIsAnOptionalLastSectionWithOrWithoutTheMapTime) {
+  SnapshotContents s;
+  s.lsn = 5;
+  s.map = "m";
+  s.window = "window-state";
+  EXPECT_EQ(decodeSnapshot(encodeSnapshot(s)).window, "window-state");
+  EXPECT_FALSE(decodeSnapshot(encodeSnapshot(s)).map_time_s.has_value());
+  s.map_time_s = 3.0;
+  const SnapshotContents both = decodeSnapshot(encodeSnapshot(s));
+  EXPECT_EQ(both.window, "window-state");
+  EXPECT_EQ(both.map_time_s, 3.0);
+  s.window.clear();
+  EXPECT_TRUE(decodeSnapshot(encodeSnapshot(s)).window.empty());
+}
+
 TEST(SnapshotFile, WrittenAtomically) {
   TempDir tmp;
   writeFileAtomically(tmp.path / "a.dms", "first");

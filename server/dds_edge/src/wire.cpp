@@ -161,7 +161,8 @@ msg::QueryReply toReply(const msg::QueryRequest& rq, Answer a) {
     std::transform(p->states.begin(), p->states.end(), rp.states().begin(), [](CellState c) {
       return c == CellState::kOccupied ? msg::CELL_OCCUPIED
              : c == CellState::kFree   ? msg::CELL_FREE
-                                       : msg::CELL_UNKNOWN;
+             : c == CellState::kNotInMemory ? msg::CELL_NOT_IN_MEMORY
+                                            : msg::CELL_UNKNOWN;
     });
   } else if (const auto* b = std::get_if<BoxAnswer>(&a.result)) {
     rp.cells().reserve(3 * b->cells.size());

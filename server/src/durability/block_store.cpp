@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -110,6 +111,15 @@ std::string BlockStore::get(std::uint64_t id, std::uint64_t version) const {
   ::close(fd);
   if (!error.empty()) throw StorageError(fmt::format("map block file {}: {}", path.string(), error));
   return bytes;
+}
+
+void BlockStore::remove(std::uint64_t id, std::uint64_t version) {
+  const fs::path path = dir_ / blockFileName(id, version);
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::unlink(path.c_str()) == 0) {
+    const auto size = static_cast<std::uint64_t>(st.st_size);
+    bytes_on_disk_ -= std::min(bytes_on_disk_, size);
+  }
 }
 
 void BlockStore::sync() {

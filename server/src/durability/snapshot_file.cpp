@@ -21,7 +21,7 @@ constexpr std::uint64_t kMagic = 0x31305041534D4D44ull;     // "DMMSAP01"
 constexpr std::uint64_t kEndMagic = 0x444E4550414E5344ull;  // "DSNAPEND"
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kFooterBytes = 8 + 4 + 8;
-enum Tag : std::uint32_t { kProgress = 1, kMap = 2, kDense = 3, kMapTime = 4 };
+enum Tag : std::uint32_t { kProgress = 1, kMap = 2, kDense = 3, kMapTime = 4, kWindow = 5 };
 
 const char* tagName(std::uint32_t t) {
   switch (t) {
@@ -33,6 +33,8 @@ const char* tagName(std::uint32_t t) {
       return "dense layer";
     case kMapTime:
       return "map time";
+    case kWindow:
+      return "map window";
   }
   return "unknown";
 }
@@ -53,8 +55,9 @@ std::string encodeSnapshot(const SnapshotContents& s) {
   for (auto [tag, bytes] : {std::pair<std::uint32_t, const std::string*>{kProgress, &s.progress},
                             {kMap, &s.map},
                             {kDense, &s.dense},
-                            {kMapTime, &map_time}}) {
-    if (tag == kMapTime && bytes->empty()) continue;
+                            {kMapTime, &map_time},
+                            {kWindow, &s.window}}) {
+    if ((tag == kMapTime || tag == kWindow) && bytes->empty()) continue;
     w.put(tag);
     w.put(static_cast<std::uint64_t>(bytes->size()));
     w.put(crc32Of(*bytes));
@@ -88,10 +91,16 @@ SnapshotContents decodeSnapshot(std::string_view bytes) {
   s.lsn = r.get<std::uint64_t>("lsn");
   s.created_ns = r.get<std::int64_t>("created");
   s.fingerprint = r.string("fingerprint", 1 << 16);
-  for (std::uint32_t want : {kProgress, kMap, kDense, kMapTime}) {
-    if (want == kMapTime && r.done()) break;
+  // Three sections always, then the optional ones, each at most once and in this order.
+  for (std::uint32_t want : {kProgress, kMap, kDense, kMapTime, kWindow}) {
+    if (want >= kMapTime && r.done()) break;
     const std::size_t at = r.offset();
     const auto tag = r.get<std::uint32_t>("section tag");
+    if (want == kMapTime && tag == kWindow) {
+      want = kWindow;  // no map time (decay off)
+    } else if (want == kWindow && tag != kWindow) {
+      r.fail(fmt::format("section {} after the optional ones", tag));
+    }
     if (tag != want)
       throw util::FormatError(fmt::format("section {} where the {} was due", tag, tagName(want)), at);
     const std::uint64_t n = r.count("section length", 1);
@@ -107,6 +116,11 @@ SnapshotContents decodeSnapshot(std::string_view bytes) {
         throw util::FormatError("the map time is not one finite number", body);
       s.map_time_s = v;
       continue;
+    }
+    if (tag == kWindow) {
+      if (data.empty()) throw util::FormatError("an empty map window section", body);
+      s.window.assign(data);
+      break;  // the last one
     }
     (tag == kProgress ? s.progress : tag == kMap ? s.map : s.dense).assign(data);
   }

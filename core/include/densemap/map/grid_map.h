@@ -60,6 +60,10 @@ class GridMap : public OccupancyMap {
 
   const Block* findBlock(const VoxelKey& key) const;
   static std::uint64_t blockIdOf(const VoxelKey& key) { return blockId(key); }
+  const Block* blockById(std::uint64_t id) const {
+    auto it = blocks_.find(id);
+    return it == blocks_.end() ? nullptr : it->second.get();
+  }
 
   /// Blocks out of memory (issue 22's rolling window and memory cap): takeBlock removes a block and
   /// remembers that its cells exist elsewhere; putBlock brings it back. A scan must not change a block
@@ -67,6 +71,11 @@ class GridMap : public OccupancyMap {
   /// and queries answer "unknown" there unless the caller checks inMemory.
   std::unique_ptr<Block> takeBlock(std::uint64_t id);
   void putBlock(std::uint64_t id, std::unique_ptr<Block> block);
+  /// Marks a block out of memory whose bytes are elsewhere (a restart: a snapshot's stored blocks).
+  void markOutOfMemory(std::uint64_t id) {
+    blocks_.erase(id);
+    out_of_memory_.insert(id);
+  }
   bool inMemory(const VoxelKey& key) const { return !out_of_memory_.contains(blockId(key)); }
   std::size_t outOfMemoryCount() const { return out_of_memory_.size(); }
   /// Out-of-memory blocks with a cell in [lo, hi].

@@ -28,6 +28,8 @@ struct MapChange {
   std::uint64_t snapshot_lsn = 0;
   std::string snapshot_progress;
   std::string dense_state;
+  /// SnapshotCommand with a map window: its state (MapWindow::snapshotState) at the snapshot's point.
+  std::string window_state;
   double snapshot_ms = 0.0;  ///< how long taking the snapshot held up the map update
   CommandResult result;
   std::promise<void> done;  ///< set when the last stage has applied it (or the pipeline gave it up)

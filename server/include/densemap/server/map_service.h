@@ -18,6 +18,7 @@
 #include "densemap/server/durability/data_directory.h"
 #include "densemap/server/durability/journal_stage.h"
 #include "densemap/server/latency_window.h"
+#include "densemap/server/map_window.h"
 #include "densemap/server/map_directory.h"
 #include "densemap/server/map_stores.h"
 #include "densemap/server/pipeline.h"
@@ -93,10 +94,18 @@ class MapService {
   CommandResult runChange(std::shared_ptr<MapChange> change);
   CommandResult save(const SaveCommand& c);
   CommandResult load(const LoadCommand& c);
+ public:
+  /// The map window's figures (null without one).
+  std::optional<MapWindow::Stats> windowStats() const {
+    return window_ ? std::optional(window_->stats()) : std::nullopt;
+  }
+
+ private:
 
   ServiceOptions options_;
   std::chrono::steady_clock::time_point started_;
   std::unique_ptr<MapStore> store_;
+  std::unique_ptr<MapWindow> window_;  // before the pipeline, whose occupancy stage uses it
   std::unique_ptr<DenseStore> dense_store_;
   std::unique_ptr<MapDirectory> map_dir_;
   std::unique_ptr<QueryAnswerer> answerer_;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "densemap/server/map_stores.h"
+#include "densemap/server/map_window.h"
 #include "densemap/server/pipeline_stage.h"
 #include "densemap/server/update_priority.h"
 #include "densemap/update/update_engine.h"
@@ -14,8 +15,10 @@ class OccupancyStage : public PipelineStage {
  public:
   /// `priority.low_nice` > 0 runs the update at that nice value while scans are on time, so query and
   /// DDS threads that wake up take a core at once instead of waiting for the update's time slice.
-  OccupancyStage(MapStore& store, update::UpdateOptions options, UpdatePriorityOptions priority = {0, {}})
-      : store_(store), engine_(options), priority_(priority) {}
+  /// `window` (may be null): the rolling window and memory cap, run around each scan.
+  OccupancyStage(MapStore& store, update::UpdateOptions options, UpdatePriorityOptions priority = {0, {}},
+                 MapWindow* window = nullptr)
+      : store_(store), engine_(options), priority_(priority), window_(window) {}
 
   std::string name() const override { return "occupancy"; }
   StageResult process(ScanJob& job) override;
@@ -30,6 +33,7 @@ class OccupancyStage : public PipelineStage {
   MapStore& store_;
   update::UpdateEngine engine_;
   UpdatePriority priority_;
+  MapWindow* window_;
 };
 
 }  // namespace densemap::server

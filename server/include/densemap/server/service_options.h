@@ -9,6 +9,7 @@
 #include "densemap/map/map_factory.h"
 #include "densemap/server/densify_stage.h"
 #include "densemap/server/durability/durability_options.h"
+#include "densemap/server/map_window.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query_answerer.h"
 #include "densemap/server/scan_validator.h"
@@ -47,6 +48,8 @@ struct ServiceOptions {
   int update_late_nice = 0;
   /// The dense stage's input when it falls behind: drop the oldest scans, or wait (every scan reaches it).
   OverflowPolicy dense_overflow = OverflowPolicy::kDropOldest;
+  /// The rolling window and the memory cap of the exact map (grid backend; off by default).
+  MapWindowOptions window{};
   /// The journal and snapshots in DATA_DIR (docs/DURABILITY.md).
   durability::DurabilityOptions durability{};
   /// The service's data directory (the journal, snapshots, and maps).

@@ -33,6 +33,8 @@ class BlockStore {
   /// A block's bytes. Throws StorageError naming the file when it is missing, not a regular file (a
   /// symbolic link included), larger than the limit, or unreadable.
   std::string get(std::uint64_t id, std::uint64_t version) const;
+  /// Removes one block file now (no snapshot can name it: the service runs without a journal).
+  void remove(std::uint64_t id, std::uint64_t version);
   /// fsync of every file put since the last sync, then of the directory. Throws StorageError.
   void sync();
   /// Removes every block file whose (id, version) `keep` refuses, and leftover temporary files; returns

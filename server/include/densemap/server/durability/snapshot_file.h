@@ -3,7 +3,8 @@
 //
 //   magic u64 | version u32 | lsn u64 | created_ns i64 | fingerprint | sections | footer
 //   section = tag u32 | length u64 | CRC-32 u32 | bytes     (progress, map as .ot, dense layer state,
-//                                                           then, with decay on only, the map time f64)
+//                                                           then, with decay on only, the map time f64,
+//                                                           then, with a map window only, its state)
 //   footer  = length of everything before u64 | CRC-32 of it u32 | end magic u64
 //
 // The footer makes a truncated file detectable; each section's CRC says which part is damaged.
@@ -27,6 +28,9 @@ struct SnapshotContents {
   /// The map's time (decay's clock, OccupancyMap::mapTime) when decay is on: a restart then decays as the
   /// uninterrupted run would. An optional last section; snapshots without it read as before.
   std::optional<double> map_time_s;
+  /// MapWindow::snapshotState() when the rolling window or memory cap is on (an optional last section):
+  /// which map blocks are stored out of memory, and under which version.
+  std::string window;
 };
 
 std::string encodeSnapshot(const SnapshotContents& s);

@@ -1,0 +1,84 @@
+// The rolling window and the memory cap (issue 22): after each scan, grid blocks whose centre is farther
+// than the radius from every robot's latest sensor position, and then the least recently updated while
+// the map is over its cap, leave the exact map's memory: kept as write-once files in the block store
+// (DATA_DIR/blocks) or dropped. Before each scan, the stored blocks its rays can reach come back, so the
+// map (in memory plus stored) is always the map of every scan. Runs on the map's writer thread only.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "densemap/map/grid_map.h"
+#include "densemap/server/durability/block_store.h"
+#include "densemap/util/log_throttle.h"
+
+namespace densemap::server {
+
+struct MapWindowOptions {
+  double radius_m = 0.0;    ///< 0: no window
+  double max_map_mb = 0.0;  ///< 0: no cap
+  bool store = true;        ///< false: blocks that leave memory are forgotten
+  /// False without a journal: no snapshot will name a file, so a block's file goes as soon as it comes back.
+  bool snapshots = true;
+  bool enabled() const { return radius_m > 0.0 || max_map_mb > 0.0; }
+};
+
+class MapWindow {
+ public:
+  using Publisher = map::OccupancyMap::Publisher;
+  /// `store` is used when options.store (then it must not be null).
+  MapWindow(MapWindowOptions options, std::unique_ptr<durability::BlockStore> store);
+
+  /// Before a scan whose rays lie in the key box [lo, hi]: its stored blocks come back (inside publish).
+  /// Throws durability::StorageError or util::FormatError (naming the file) when one cannot be read; then
+  /// nothing changed, and the scan must not be applied (it would overwrite the stored cells).
+  void bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
+                 const Publisher& publish);
+  /// After a scan of `robot` from `origin`: blocks leave memory (removed inside publish, written after).
+  void afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
+                 const Publisher& publish);
+  /// A reset or a loaded map: no block is stored any more (the files go at the next snapshot's collect).
+  void forgetAll();
+
+  /// For a snapshot (writer thread): the version counter, the robots' positions and the index of stored
+  /// blocks, after making every stored file durable.
+  std::string snapshotState();
+  /// After a restart: the state of the snapshot; marks its stored blocks out of memory in `m`.
+  /// Throws util::FormatError naming what is wrong.
+  void restoreState(std::string_view state, map::GridMap& m);
+  /// A snapshot with `state` is durable: files neither it nor the live index names can go (done on the
+  /// writer thread at the next scan). Any thread.
+  void snapshotWritten(std::string state);
+
+  struct Stats {
+    std::uint64_t blocks_out = 0, left = 0, came_back = 0, dropped = 0, bytes_stored = 0;
+    std::uint64_t store_failures = 0;  ///< blocks kept in memory because the store could not take them
+  };
+  Stats stats() const;
+  const MapWindowOptions& options() const { return options_; }
+
+ private:
+  void evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, const Publisher& publish);
+  void collectPending();
+
+  MapWindowOptions options_;
+  std::unique_ptr<durability::BlockStore> store_;
+  std::map<std::string, geometry::Vec3f> robots_;           // latest sensor position per robot
+  std::unordered_map<std::uint64_t, std::uint64_t> index_;  // stored block -> version
+  std::uint64_t version_ = 0;
+  std::mutex pending_mutex_;
+  std::optional<std::string> pending_collect_;
+  std::atomic<std::uint64_t> blocks_out_{0}, left_{0}, came_back_{0}, dropped_{0}, bytes_stored_{0},
+      store_failures_{0};
+  util::LogThrottle throttle_;
+};
+
+}  // namespace densemap::server

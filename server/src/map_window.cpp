@@ -1,0 +1,214 @@
+#include "densemap/server/map_window.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <unordered_set>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "densemap/server/durability/journal_segment.h"
+#include "densemap/util/byte_codec.h"
+
+namespace densemap::server {
+
+namespace {
+constexpr std::uint32_t kStateMagic = 0x31574D44;  // "DMW1"
+}  // namespace
+
+MapWindow::MapWindow(MapWindowOptions options, std::unique_ptr<durability::BlockStore> store)
+    : options_(options), store_(std::move(store)) {
+  if (options_.store && !store_) throw std::invalid_argument("the map window needs a block store");
+  // Without a journal no snapshot names a file: what an earlier run left is of no use.
+  if (store_ && !options_.snapshots) store_->collect([](std::uint64_t, std::uint64_t) { return false; });
+}
+
+void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
+                          const Publisher& publish) {
+  if (m.outOfMemoryCount() == 0) return;
+  const std::vector<std::uint64_t> ids = m.outOfMemoryIn(lo, hi);
+  if (ids.empty()) return;
+  // Read and decode before taking the lock: readers wait only for the pointers to move.
+  std::vector<std::pair<std::uint64_t, std::unique_ptr<map::PaletteBlock>>> back;
+  for (std::uint64_t id : ids) {
+    auto it = index_.find(id);
+    if (it == index_.end()) {  // dropped (never stored): it comes back empty
+      back.emplace_back(id, nullptr);
+      continue;
+    }
+    try {
+      back.emplace_back(
+          id, std::make_unique<map::PaletteBlock>(map::PaletteBlock::decode(store_->get(id, it->second))));
+    } catch (const util::FormatError& e) {
+      throw durability::StorageError(
+          fmt::format("map block file {}: {}",
+                      (store_->dir() / durability::blockFileName(id, it->second)).string(), e.what()));
+    }
+  }
+  publish([&] {
+    for (auto& [id, block] : back) m.putBlock(id, std::move(block));
+  });
+  for (const auto& [id, block] : back) {
+    auto it = index_.find(id);
+    if (it == index_.end()) continue;
+    if (!options_.snapshots) store_->remove(id, it->second);
+    index_.erase(it);
+  }
+  came_back_ += back.size();
+  blocks_out_ = m.outOfMemoryCount();
+}
+
+void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
+                          const Publisher& publish) {
+  collectPending();
+  robots_[robot] = origin;
+  std::vector<std::uint64_t> ids;
+  if (options_.radius_m > 0.0) {
+    std::vector<geometry::Vec3f> centres;
+    centres.reserve(robots_.size());
+    for (const auto& [id, p] : robots_) centres.push_back(p);
+    ids = m.blocksFartherThan(centres, options_.radius_m);
+  }
+  if (!ids.empty()) evict(m, ids, publish);
+  if (options_.max_map_mb > 0.0) {
+    const auto cap = static_cast<std::size_t>(options_.max_map_mb * 1e6);
+    const std::size_t bytes = m.memoryBytes();
+    // Past the cap, down to 90% of it, so the next scans do not each evict a little.
+    if (bytes > cap) evict(m, m.leastRecentlyUpdated(bytes - cap * 9 / 10), publish);
+  }
+}
+
+void MapWindow::evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, const Publisher& publish) {
+  // Written first, taken out after: a block leaves memory only once its file is there, so a full disk
+  // costs memory, never cells.
+  std::vector<std::uint64_t> leaving;
+  leaving.reserve(ids.size());
+  if (options_.store) {
+    for (std::uint64_t id : ids) {
+      const map::PaletteBlock* b = m.blockById(id);
+      if (b == nullptr) continue;
+      const std::string bytes = b->encode();
+      const std::uint64_t version = ++version_;
+      try {
+        store_->put(id, version, bytes);
+      } catch (const durability::StorageError& e) {
+        ++store_failures_;
+        if (throttle_.due())
+          spdlog::warn("map window: {}; the map keeps its blocks in memory until the store can take them",
+                       e.what());
+        break;
+      }
+      index_[id] = version;
+      bytes_stored_ += bytes.size();
+      leaving.push_back(id);
+    }
+  } else {
+    leaving = ids;
+  }
+  publish([&] {
+    for (std::uint64_t id : leaving) {
+      m.takeBlock(id);
+      if (!options_.store) m.putBlock(id, nullptr);  // forgotten: not out of memory, just gone
+    }
+  });
+  (options_.store ? left_ : dropped_) += leaving.size();
+  blocks_out_ = m.outOfMemoryCount();
+}
+
+void MapWindow::forgetAll() {
+  if (store_ && !options_.snapshots) store_->collect([](std::uint64_t, std::uint64_t) { return false; });
+  index_.clear();
+  blocks_out_ = 0;
+}
+
+std::string MapWindow::snapshotState() {
+  if (store_) store_->sync();
+  std::string out;
+  util::ByteWriter w(out);
+  w.put(kStateMagic);
+  w.put(version_);
+  w.put(static_cast<std::uint64_t>(robots_.size()));
+  for (const auto& [id, p] : robots_) {
+    w.string(id);
+    w.put(p.x());
+    w.put(p.y());
+    w.put(p.z());
+  }
+  w.put(static_cast<std::uint64_t>(index_.size()));
+  for (const auto& [id, version] : index_) {
+    w.put(id);
+    w.put(version);
+  }
+  return out;
+}
+
+namespace {
+struct DecodedState {
+  std::uint64_t version = 0;
+  std::map<std::string, geometry::Vec3f> robots;
+  std::unordered_map<std::uint64_t, std::uint64_t> index;
+};
+
+DecodedState decodeState(std::string_view bytes) {
+  util::ByteReader r(bytes);
+  if (r.get<std::uint32_t>("window magic") != kStateMagic) r.fail("not a map window state");
+  DecodedState s;
+  s.version = r.get<std::uint64_t>("window version");
+  const std::uint64_t robots = r.count("robots", 4 + 12);
+  for (std::uint64_t i = 0; i < robots; ++i) {
+    std::string id = r.string("robot id", 256);
+    const float x = r.get<float>("x"), y = r.get<float>("y"), z = r.get<float>("z");
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) r.fail("a robot position is not finite");
+    s.robots[std::move(id)] = geometry::Vec3f(x, y, z);
+  }
+  const std::uint64_t blocks = r.count("stored blocks", 16);
+  for (std::uint64_t i = 0; i < blocks; ++i) {
+    const auto id = r.get<std::uint64_t>("block id");
+    const auto version = r.get<std::uint64_t>("block version");
+    if (version == 0 || version > s.version) r.fail("a stored block's version is past the window's counter");
+    if (!s.index.emplace(id, version).second) r.fail("a block stored twice");
+  }
+  if (!r.done()) r.fail("bytes after the window state");
+  return s;
+}
+}  // namespace
+
+void MapWindow::restoreState(std::string_view state, map::GridMap& m) {
+  DecodedState s = decodeState(state);
+  version_ = s.version;
+  robots_ = std::move(s.robots);
+  index_ = std::move(s.index);
+  if (!options_.store && !index_.empty())
+    throw std::runtime_error(
+        "the snapshot has stored map blocks but the server drops them (--evicted-blocks)");
+  for (const auto& [id, version] : index_) m.markOutOfMemory(id);
+  blocks_out_ = m.outOfMemoryCount();
+}
+
+void MapWindow::snapshotWritten(std::string state) {
+  std::lock_guard lock(pending_mutex_);
+  pending_collect_ = std::move(state);
+}
+
+void MapWindow::collectPending() {
+  std::optional<std::string> state;
+  {
+    std::lock_guard lock(pending_mutex_);
+    state.swap(pending_collect_);
+  }
+  if (!state || !store_) return;
+  const DecodedState snap = decodeState(*state);
+  const std::size_t removed = store_->collect([&](std::uint64_t id, std::uint64_t version) {
+    auto a = snap.index.find(id);
+    auto b = index_.find(id);
+    return (a != snap.index.end() && a->second == version) || (b != index_.end() && b->second == version);
+  });
+  if (removed > 0) spdlog::debug("map window: removed {} block files no index names", removed);
+}
+
+MapWindow::Stats MapWindow::stats() const {
+  return {blocks_out_.load(), left_.load(),         came_back_.load(),
+          dropped_.load(),    bytes_stored_.load(), store_failures_.load()};
+}
+
+}  // namespace densemap::server
