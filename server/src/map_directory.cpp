@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "densemap/server/file_descriptor_io.h"
 #include "densemap/server/request_error.h"
 
 namespace densemap::server {
@@ -76,16 +77,8 @@ void MapDirectory::write(std::string_view name, std::string_view bytes) const {
   if (fd < 0)
     throw RequestError(Status::kFailed,
                        fmt::format("cannot write in the map directory {}: {}", dir_.string(), errnoText()));
-  std::size_t done = 0;
-  bool ok = true;
-  while (ok && done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    ok = n > 0;
-    if (ok) done += static_cast<std::size_t>(n);
-  }
-  const std::string write_error = ok ? "" : errnoText();
-  ok = ok && ::fsync(fd) == 0;
+  const std::string write_error = writeAll(fd, bytes);
+  const bool ok = write_error.empty() && ::fsync(fd) == 0;
   ::close(fd);
   // renameat replaces `name` itself, a symbolic link included, and never follows it.
   if (!ok || ::renameat(dir, tmp.c_str(), dir, std::string(name).c_str()) != 0) {
@@ -109,30 +102,14 @@ std::string MapDirectory::read(std::string_view name, std::size_t max_bytes) con
           fmt::format("{} is a symbolic link; maps are loaded only from files in {}", name, dir_.string()));
     throw RequestError(Status::kFailed, fmt::format("cannot open {}: {}", name, errnoText()));
   }
-  struct stat st {};
-  std::string bytes;
-  std::string error;
-  if (::fstat(fd, &st) != 0) {
-    error = errnoText();
-  } else if (!S_ISREG(st.st_mode)) {
-    error = "not a regular file";
-  } else if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
+  RegularFileRead r = readRegularFile(fd, max_bytes);
+  if (r.too_large) {
     ::close(fd);
-    throw RequestError(Status::kInvalidArgument, fmt::format("{} has {} bytes; the server loads at most {}",
-                                                             name, st.st_size, max_bytes));
-  } else {
-    bytes.resize(static_cast<std::size_t>(st.st_size));
-    std::size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) {
-        error = n == 0 ? "the file shrank while being read" : errnoText();
-        break;
-      }
-      done += static_cast<std::size_t>(n);
-    }
+    throw RequestError(Status::kInvalidArgument,
+                       fmt::format("{} has {} bytes; the server loads at most {}", name, r.size, max_bytes));
   }
+  const std::string error = r.error;
+  std::string bytes = std::move(r.bytes);
   ::close(fd);
   if (!error.empty()) throw RequestError(Status::kFailed, fmt::format("cannot read {}: {}", name, error));
   return bytes;

@@ -35,7 +35,7 @@ StageResult OccupancyStage::apply(ScanJob& job) {
   };
   store_.writerView().advanceTime(static_cast<double>(job.received_ns) * 1e-9, publish_decay);
   auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr;
-  if (grid != nullptr) {
+  if (grid != nullptr && grid->outOfMemoryCount() > 0) {  // the key box costs a pass over the points
     // The stored blocks this scan's rays can reach come back first, so it updates their real values.
     geometry::VoxelKey lo, hi;
     if (grid->converter().toKey(job.scan.origin(), lo)) {

@@ -355,6 +355,41 @@ TEST(Ros2Edge, ServicesAsRmwFastrtpsCallsThemGetMatchedReplies) {
   EXPECT_EQ(server.edge.counters().service_requests, 3u);
 }
 
+// An rmw_fastrtps client may send as soon as its own endpoints see the service, before the service's reply
+// writer has matched the client's reply reader. The reply must still arrive: the edge waits for that reader.
+// Here the reader is enabled (announced) only after the request went out, which forces that order.
+TEST(Ros2Edge, AReplyWaitsForItsClientsReaderToBeMatched) {
+  constexpr int kDomain = 189;
+  Ros2Server server(serviceOptions(kDomain), ros2Options(), kDomain);
+  Ros2TestNode client(kDomain, "impatient_client");
+  const ros2::Qos qos = ros2::Qos::reliableDefault();
+  auto* rq = client.writer("rq/octomap_server/resetRequest", "std_srvs::srv::dds_::Empty_Request_", qos);
+  ASSERT_TRUE(Ros2TestNode::waitMatched(rq));
+  fdds::SubscriberQos late_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+  late_qos.entity_factory().autoenable_created_entities = false;
+  fdds::Subscriber* late = client.node.participant().create_subscriber(late_qos);
+  ASSERT_NE(late, nullptr);
+  auto* topic = client.node.topic("rr/octomap_server/resetReply",
+                                  msg::rawCdrType("std_srvs::srv::dds_::Empty_Response_"));
+  fdds::DataReader* rr = late->create_datareader(topic, msg::readerQos(qos));
+  ASSERT_NE(rr, nullptr);
+  eprosima::fastrtps::rtps::WriteParams params;
+  params.related_sample_identity().writer_guid(rr->guid());
+  ASSERT_NE(rr->guid(), eprosima::fastrtps::rtps::GUID_t::unknown());
+  msg::RawSample empty{ros2::encodeEmpty()};
+  ASSERT_TRUE(rq->write(&empty, params));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the edge has the request by now
+  ASSERT_EQ(rr->enable(), ReturnCode_t::RETCODE_OK);
+  fdds::SampleInfo info;
+  ASSERT_TRUE(Ros2TestNode::take(rr, std::chrono::milliseconds(10000), &info));
+  EXPECT_EQ(info.related_sample_identity.writer_guid(), rr->guid());
+  EXPECT_EQ(info.related_sample_identity.sequence_number(), params.sample_identity().sequence_number());
+  EXPECT_EQ(server.edge.counters().service_requests, 1u);
+  EXPECT_EQ(server.edge.counters().replies_unmatched, 0u);
+  late->delete_contained_entities();
+  client.node.participant().delete_subscriber(late);
+}
+
 std::vector<std::uint8_t> badCloud(int kind, const io::Scan& scan) {
   std::vector<std::uint8_t> bytes = ros2::scanMessages(scan, 1, "map", "lidar").cloud;
   ros2::PointCloud2 c = ros2::decodePointCloud2(bytes);

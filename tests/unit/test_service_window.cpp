@@ -75,19 +75,28 @@ Tally compare(MapService& s, const map::OccupancyMap& expected) {
   return t;
 }
 
-TEST(ServiceWindow, FarBlocksLeaveAndComeBackAndEveryCellIsTheOfflineMapsOrSaysStored) {
+/// A window of 20 m over the simulator driven there and back (12 scans each way).
+class ServiceWindow : public ::testing::Test {
+ protected:
   TempDir tmp;
-  const ServiceOptions o = windowOptions(tmp.path);
-  const auto scans = thereAndBack(12);
+  ServiceOptions o = windowOptions(tmp.path);
+  const std::vector<io::Scan> scans = thereAndBack(12);
   const std::size_t forward = scans.size() / 2;
+
+  /// compare() against the offline map of the first `n` scans.
+  Tally compareFirst(MapService& s, std::size_t n) const {
+    return compare(s, *offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(n)}, o.map));
+  }
+};
+
+TEST_F(ServiceWindow, FarBlocksLeaveAndComeBackAndEveryCellIsTheOfflineMapsOrSaysStored) {
   MapService s(o);
   submitAll(s, scans, 0, forward);
   const auto w1 = s.windowStats();
   ASSERT_TRUE(w1);
   EXPECT_GT(w1->left, 100u) << "blocks behind the robot left memory";
   EXPECT_GT(w1->blocks_out, 0u);
-  const Tally t1 =
-      compare(s, *offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(forward)}, o.map));
+  const Tally t1 = compareFirst(s, forward);
   EXPECT_EQ(t1.wrong, 0u);
   EXPECT_GT(t1.stored, 1000u);
   EXPECT_GT(t1.same, 1000u);
@@ -95,7 +104,7 @@ TEST(ServiceWindow, FarBlocksLeaveAndComeBackAndEveryCellIsTheOfflineMapsOrSaysS
   submitAll(s, scans, forward, scans.size());
   const auto w2 = s.windowStats();
   EXPECT_GT(w2->came_back, 100u);
-  const Tally t2 = compare(s, *offline(scans, o.map));
+  const Tally t2 = compareFirst(s, scans.size());
   EXPECT_EQ(t2.wrong, 0u) << t2.same << " same, " << t2.stored << " stored";
   EXPECT_GT(t2.stored, 1000u) << "now the far end is stored";
   const std::size_t in_memory = s.mapStore().read([](const map::OccupancyMap& m, std::uint64_t) {
@@ -104,12 +113,8 @@ TEST(ServiceWindow, FarBlocksLeaveAndComeBackAndEveryCellIsTheOfflineMapsOrSaysS
   EXPECT_LT(in_memory, static_cast<const map::GridMap&>(*offline(scans, o.map)).blockCount() * 3 / 4);
 }
 
-TEST(ServiceWindow, ARestartFromSnapshotAndJournalKeepsWhatWasStored) {
-  TempDir tmp;
-  ServiceOptions o = windowOptions(tmp.path);
+TEST_F(ServiceWindow, ARestartFromSnapshotAndJournalKeepsWhatWasStored) {
   o.durability.snapshot_on_exit = false;  // what a crash leaves
-  const auto scans = thereAndBack(12);
-  const std::size_t forward = scans.size() / 2;
   {
     MapService a(o);
     submitAll(a, scans, 0, 4);
@@ -119,25 +124,21 @@ TEST(ServiceWindow, ARestartFromSnapshotAndJournalKeepsWhatWasStored) {
   MapService b(o);
   ASSERT_TRUE(b.recovery());
   EXPECT_EQ(b.recovery()->records_replayed, forward - 4);
-  const Tally t1 =
-      compare(b, *offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(forward)}, o.map));
+  const Tally t1 = compareFirst(b, forward);
   EXPECT_EQ(t1.wrong, 0u);
   EXPECT_GT(t1.stored, 1000u);
   submitAll(b, scans, forward, scans.size());
-  const Tally t2 = compare(b, *offline(scans, o.map));
+  const Tally t2 = compareFirst(b, scans.size());
   EXPECT_EQ(t2.wrong, 0u) << t2.same << " same, " << t2.stored << " stored";
   EXPECT_GT(t2.same, 1000u);
 }
 
-TEST(ServiceWindow, DroppedBlocksAreForgottenAndACapBoundsMemory) {
-  TempDir tmp;
-  ServiceOptions o = windowOptions(tmp.path);
+TEST_F(ServiceWindow, DroppedBlocksAreForgottenAndACapBoundsMemory) {
   o.window.radius_m = 0.0;
   o.window.max_map_mb = 1.0;
   o.window.store = false;
-  const auto scans = thereAndBack(12);
   MapService s(o);
-  submitAll(s, scans, 0, scans.size() / 2);
+  submitAll(s, scans, 0, forward);
   const auto w = s.windowStats();
   EXPECT_GT(w->dropped, 0u);
   EXPECT_EQ(w->blocks_out, 0u) << "dropped blocks are gone, not stored";
@@ -146,17 +147,12 @@ TEST(ServiceWindow, DroppedBlocksAreForgottenAndACapBoundsMemory) {
   // The cap, plus what the last scan wrote (never evicted).
   EXPECT_LT(bytes, 2'000'000u);
   EXPECT_FALSE(fs::exists(fs::path(o.data_dir) / "blocks")) << "nothing stored";
-  const Tally t = compare(
-      s, *offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(scans.size() / 2)}, o.map));
+  const Tally t = compareFirst(s, forward);
   EXPECT_EQ(t.stored, 0u);
   EXPECT_GT(t.wrong, 0u) << "forgotten cells answer unknown (what drop means)";
 }
 
-TEST(ServiceWindow, ADamagedStoredBlockRefusesTheScanThatReachesIt) {
-  TempDir tmp;
-  const ServiceOptions o = windowOptions(tmp.path);
-  const auto scans = thereAndBack(12);
-  const std::size_t forward = scans.size() / 2;
+TEST_F(ServiceWindow, ADamagedStoredBlockRefusesTheScanThatReachesIt) {
   MapService s(o);
   submitAll(s, scans, 0, forward);
   const fs::path blocks = fs::path(o.data_dir) / "blocks";
@@ -178,11 +174,7 @@ TEST(ServiceWindow, ADamagedStoredBlockRefusesTheScanThatReachesIt) {
             known_before);
 }
 
-TEST(ServiceWindow, AStoreThatCannotWriteKeepsTheBlocksInMemory) {
-  TempDir tmp;
-  const ServiceOptions o = windowOptions(tmp.path);
-  const auto scans = thereAndBack(12);
-  const std::size_t forward = scans.size() / 2;
+TEST_F(ServiceWindow, AStoreThatCannotWriteKeepsTheBlocksInMemory) {
   MapService s(o);
   const fs::path blocks = fs::path(o.data_dir) / "blocks";
   fs::remove_all(blocks);
@@ -190,17 +182,13 @@ TEST(ServiceWindow, AStoreThatCannotWriteKeepsTheBlocksInMemory) {
   submitAll(s, scans, 0, forward);
   EXPECT_EQ(s.windowStats()->left, 0u);
   EXPECT_GT(s.windowStats()->store_failures, 0u);
-  const Tally t =
-      compare(s, *offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(forward)}, o.map));
+  const Tally t = compareFirst(s, forward);
   EXPECT_EQ(t.wrong, 0u);
   EXPECT_EQ(t.stored, 0u) << "every cell is still in memory";
 }
 
-TEST(ServiceWindow, WithoutAJournalABlocksFileGoesWhenTheBlockComesBack) {
-  TempDir tmp;
-  ServiceOptions o = windowOptions(tmp.path);
+TEST_F(ServiceWindow, WithoutAJournalABlocksFileGoesWhenTheBlockComesBack) {
   o.durability.journal = false;
-  const auto scans = thereAndBack(12);
   MapService s(o);
   submitAll(s, scans, 0, scans.size());
   const auto w = s.windowStats();
@@ -209,7 +197,7 @@ TEST(ServiceWindow, WithoutAJournalABlocksFileGoesWhenTheBlockComesBack) {
   for (const auto& e : fs::directory_iterator(fs::path(o.data_dir) / "blocks"))
     files += e.path().extension() == ".dmb";
   EXPECT_EQ(files, w->blocks_out) << "one file per block out of memory, none for those that came back";
-  const Tally t = compare(s, *offline(scans, o.map));
+  const Tally t = compareFirst(s, scans.size());
   EXPECT_EQ(t.wrong, 0u);
 }
 

@@ -12,12 +12,17 @@
 #include "densemap/ros2/message_codec.h"
 #include "densemap/ros2/names.h"
 #include "densemap/ros2/qos.h"
+#include "densemap/server/ros2_edge/matched_readers.h"
 #include "densemap/server/ros2_edge/ros2_options.h"
 
 namespace densemap::server::ros2_edge {
 
 namespace fdds = eprosima::fastdds::dds;
 using Clock = std::chrono::steady_clock;
+
+/// How long a reply waits for its client's reader to be matched (MatchedReaders says why). Services are
+/// rare and off the scan path; the bound keeps a client that vanished from holding the others up long.
+constexpr std::chrono::milliseconds kReplyReaderWait{1000};
 
 /// One ROS 2 service as rmw_fastrtps carries it: requests on rq/<name>Request, replies on rr/<name>Reply
 /// matched to their request by the sample identity.
@@ -27,6 +32,7 @@ struct Ros2Edge::Service {
   std::string name;
   fdds::DataReader* requests = nullptr;
   fdds::DataWriter* replies = nullptr;
+  MatchedReaders reply_readers;  ///< the clients' reply readers `replies` has matched
 };
 
 class Ros2Edge::Listener : public fdds::DataReaderListener {
@@ -133,7 +139,7 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
     auto* rr =
         node_->topic(ros2::replyTopicOnDds(svc->name), msg::rawCdrType(ros2::responseTypeOnDds(s.type)));
     svc->requests = node_->reader(rq, msg::readerQos(ros2::Qos::reliableDefault()), nullptr);
-    svc->replies = node_->writer(rr, msg::writerQos(ros2::Qos::reliableDefault()));
+    svc->replies = node_->writer(rr, msg::writerQos(ros2::Qos::reliableDefault()), &svc->reply_readers);
     services_.push_back(std::move(svc));
   }
   // Listeners last: every reader is known when the first callback comes.
@@ -182,9 +188,11 @@ void Ros2Edge::stop() {
   spdlog::info(
       "ROS 2 edge stopped: {} clouds received, {} mapped, {} undecodable, {} waited out for TF, {} pushed "
       "out "
-      "of the TF queue ({} still waiting), {} transforms refused, {} service requests, {} maps published",
+      "of the TF queue ({} still waiting), {} transforms refused, {} service requests ({} replied before the "
+      "client's reader was matched), {} maps published",
       c.clouds_received, c.clouds_submitted, c.clouds_undecodable, c.clouds_waited_out,
-      c.clouds_queue_dropped, pending_.size(), c.tf_refused, c.service_requests, c.maps_published);
+      c.clouds_queue_dropped, pending_.size(), c.tf_refused, c.service_requests, c.replies_unmatched,
+      c.maps_published);
 }
 
 Ros2Counters Ros2Edge::counters() const {
@@ -448,6 +456,15 @@ void Ros2Edge::handle(Service& s) {
       // ROS 2 services have no error reply: the client times out, as it would with octomap_server.
       spdlog::warn("{}: request refused: {}", s.name, why);
       return;
+    }
+    if (identity.writer_guid() != eprosima::fastrtps::rtps::GUID_t::unknown() &&
+        !s.reply_readers.waitFor(identity.writer_guid(), kReplyReaderWait)) {
+      std::lock_guard lock(mutex_);
+      ++counters_.replies_unmatched;
+      spdlog::warn(
+          "{}: the client's reply reader was not matched within {} ms; replying anyway, it may not "
+          "arrive (the client should retry)",
+          s.name, kReplyReaderWait.count());
     }
     eprosima::fastrtps::rtps::WriteParams params;
     params.related_sample_identity(identity);

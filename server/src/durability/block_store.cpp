@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "densemap/server/durability/journal_segment.h"
+#include "densemap/server/file_descriptor_io.h"
 
 namespace densemap::server::durability {
 
@@ -65,15 +66,8 @@ void BlockStore::put(std::uint64_t id, std::uint64_t version, std::string_view b
   const fs::path tmp = dir_ / (name.substr(0, name.size() - kSuffix.size()) + std::string(kTmpSuffix));
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0640);
   if (fd < 0) throw StorageError(fmt::format("cannot write {}: {}", tmp.string(), errnoText()));
-  std::size_t done = 0;
-  bool ok = true;
-  while (ok && done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    ok = n > 0;
-    if (ok) done += static_cast<std::size_t>(n);
-  }
-  const std::string why = ok ? "" : errnoText();
+  const std::string why = writeAll(fd, bytes);
+  const bool ok = why.empty();
   ::close(fd);
   if (!ok || ::rename(tmp.c_str(), (dir_ / name).c_str()) != 0) {
     const std::string error = why.empty() ? errnoText() : why;
@@ -90,24 +84,11 @@ std::string BlockStore::get(std::uint64_t id, std::uint64_t version) const {
   if (fd < 0)
     throw StorageError(fmt::format("map block file {} cannot be opened: {}{}", path.string(), errnoText(),
                                    errno == ELOOP ? " (a symbolic link: refused)" : ""));
-  struct stat st {};
-  std::string bytes, error;
-  if (::fstat(fd, &st) != 0) {
-    error = errnoText();
-  } else if (!S_ISREG(st.st_mode)) {
-    error = "not a regular file";
-  } else if (static_cast<std::uint64_t>(st.st_size) > max_block_bytes_) {
-    error = fmt::format("{} bytes, more than a block can have ({})", st.st_size, max_block_bytes_);
-  } else {
-    bytes.resize(static_cast<std::size_t>(st.st_size));
-    std::size_t done = 0;
-    while (error.empty() && done < bytes.size()) {
-      const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) error = n == 0 ? "the file shrank while being read" : errnoText();
-      if (n > 0) done += static_cast<std::size_t>(n);
-    }
-  }
+  RegularFileRead r = readRegularFile(fd, max_block_bytes_);
+  const std::string error =
+      r.too_large ? fmt::format("{} bytes, more than a block can have ({})", r.size, max_block_bytes_)
+                  : r.error;
+  std::string bytes = std::move(r.bytes);
   ::close(fd);
   if (!error.empty()) throw StorageError(fmt::format("map block file {}: {}", path.string(), error));
   return bytes;

@@ -58,7 +58,8 @@ struct Ros2Counters {
   std::uint64_t tf_refused = 0;            ///< transforms refused (NaN, bad quaternion, loop, ...)
   std::uint64_t tf_undecodable = 0;        ///< TF / pose samples that did not decode
   std::uint64_t service_requests = 0;
-  std::uint64_t service_refused = 0;  ///< undecodable requests
+  std::uint64_t service_refused = 0;    ///< undecodable requests
+  std::uint64_t replies_unmatched = 0;  ///< replies sent before the client's reader was matched
   std::uint64_t maps_published = 0;
   LatencySummary tf_wait_ms;  ///< from arrival to the transform, per submitted cloud
 };
