@@ -93,7 +93,16 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
             {"syncs", s.journal_syncs()},
             {"failures", s.journal_failures()},
             {"snapshots", s.snapshots()},
-            {"recovered_records", s.recovered_records()}}}};
+            {"recovered_records", s.recovered_records()}}},
+          {"window",
+           {{"on", s.window().enabled()},
+            {"blocks_out_of_memory", s.window().blocks_out_of_memory()},
+            {"blocks_evicted", s.window().blocks_evicted()},
+            {"blocks_returned", s.window().blocks_returned()},
+            {"blocks_dropped", s.window().blocks_dropped()},
+            {"bytes_stored", s.window().bytes_stored()},
+            {"store_failures", s.window().store_failures()},
+            {"robots_forgotten", s.window().robots_forgotten()}}}};
 }
 
 /// Fails with the reply's status and message when it is not OK.
@@ -237,6 +246,18 @@ int main(int argc, char** argv) {
             s->server_id().c_str(), s->uptime_s(), static_cast<unsigned long long>(s->queries_answered()),
             static_cast<unsigned long long>(s->queries_failed()), s->publish_to_map_p50_ms(),
             s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6);
+        if (s->window().enabled()) {
+          const auto& w = s->window();
+          std::printf(
+              "  map window: %llu blocks out of memory; this run %llu left, %llu came back, %llu dropped, "
+              "%.1f MB stored, %llu store failures\n",
+              static_cast<unsigned long long>(w.blocks_out_of_memory()),
+              static_cast<unsigned long long>(w.blocks_evicted()),
+              static_cast<unsigned long long>(w.blocks_returned()),
+              static_cast<unsigned long long>(w.blocks_dropped()),
+              static_cast<double>(w.bytes_stored()) / 1e6,
+              static_cast<unsigned long long>(w.store_failures()));
+        }
         if (s->participants_refused() > 0) {
           std::printf("  %llu participants refused by DDS-Security (authentication or permissions failed)\n",
                       static_cast<unsigned long long>(s->participants_refused()));
@@ -316,9 +337,13 @@ int main(int argc, char** argv) {
       out = {{"map_version", r.map_version()},
              {"occupied_cells", n},
              {"truncated", r.truncated()},
+             {"blocks_not_in_memory", r.blocks_not_in_memory()},
              {"cells", r.cells()}};
       if (!as_json) {
         std::printf("%zu occupied cells%s\n", n, r.truncated() ? " (truncated at the limit)" : "");
+        if (r.blocks_not_in_memory() > 0)
+          std::printf("  %u map blocks in the box are stored out of memory (map window): not listed\n",
+                      r.blocks_not_in_memory());
         for (std::size_t i = 0; i < std::min<std::size_t>(n, 20); ++i) {
           std::printf("  %.2f %.2f %.2f\n", r.cells()[3 * i], r.cells()[3 * i + 1], r.cells()[3 * i + 2]);
         }
@@ -336,6 +361,7 @@ int main(int argc, char** argv) {
       out = {{"map_version", r.map_version()},
              {"hit", r.hit()},
              {"hit_point", r.hit_point()},
+             {"reached_not_in_memory", r.ray_reached_not_in_memory()},
              {"message", r.message()}};
       if (!as_json) {
         if (r.hit()) {

@@ -408,6 +408,7 @@ ServiceStatistics MapService::statistics() const {
     }
   }
   for (auto& [id, c] : robots) s.robots.emplace_back(id, c);
+  s.window = windowStats();
   s.stages = pipeline_->stageCounters();
   auto pseudoStage = [&](const char* name, std::uint64_t processed, const LatencySummary& l) {
     StageCounters st;

@@ -1,6 +1,7 @@
 #include "densemap/server/map_window.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <unordered_set>
 
@@ -59,14 +60,28 @@ void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const g
 }
 
 void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
-                          const Publisher& publish) {
+                          double now_s, const Publisher& publish) {
   collectPending();
-  robots_[robot] = origin;
+  robots_[robot] = {origin, now_s};
+  // A robot that stopped sending would otherwise hold its neighbourhood in memory forever.
+  for (auto it = robots_.begin(); it != robots_.end();) {
+    if (std::isnan(it->second.last_s)) it->second.last_s = now_s;  // restored: its clock starts now
+    if (options_.robot_timeout_s > 0.0 && now_s - it->second.last_s > options_.robot_timeout_s) {
+      spdlog::info(
+          "map window: robot '{}' sent nothing for {:.0f} s (--window-robot-timeout-s); its blocks "
+          "may leave memory",
+          it->first, now_s - it->second.last_s);
+      it = robots_.erase(it);
+      ++robots_forgotten_;
+    } else {
+      ++it;
+    }
+  }
   std::vector<std::uint64_t> ids;
   if (options_.radius_m > 0.0) {
     std::vector<geometry::Vec3f> centres;
     centres.reserve(robots_.size());
-    for (const auto& [id, p] : robots_) centres.push_back(p);
+    for (const auto& [id, p] : robots_) centres.push_back(p.position);
     ids = m.blocksFartherThan(centres, options_.radius_m);
   }
   if (!ids.empty()) evict(m, ids, publish);
@@ -130,9 +145,9 @@ std::string MapWindow::snapshotState() {
   w.put(static_cast<std::uint64_t>(robots_.size()));
   for (const auto& [id, p] : robots_) {
     w.string(id);
-    w.put(p.x());
-    w.put(p.y());
-    w.put(p.z());
+    w.put(p.position.x());
+    w.put(p.position.y());
+    w.put(p.position.z());
   }
   w.put(static_cast<std::uint64_t>(index_.size()));
   for (const auto& [id, version] : index_) {
@@ -176,7 +191,8 @@ DecodedState decodeState(std::string_view bytes) {
 void MapWindow::restoreState(std::string_view state, map::GridMap& m) {
   DecodedState s = decodeState(state);
   version_ = s.version;
-  robots_ = std::move(s.robots);
+  robots_.clear();
+  for (auto& [id, p] : s.robots) robots_[id] = {p, std::numeric_limits<double>::quiet_NaN()};
   index_ = std::move(s.index);
   if (!options_.store && !index_.empty())
     throw std::runtime_error(
@@ -207,8 +223,8 @@ void MapWindow::collectPending() {
 }
 
 MapWindow::Stats MapWindow::stats() const {
-  return {blocks_out_.load(), left_.load(),         came_back_.load(),
-          dropped_.load(),    bytes_stored_.load(), store_failures_.load()};
+  return {blocks_out_.load(),   left_.load(),           came_back_.load(),       dropped_.load(),
+          bytes_stored_.load(), store_failures_.load(), robots_forgotten_.load()};
 }
 
 }  // namespace densemap::server

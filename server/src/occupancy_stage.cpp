@@ -67,7 +67,9 @@ StageResult OccupancyStage::apply(ScanJob& job) {
   if (!stats) {  // validateScan checks the origin first; kept so a missed case is a rejection, not a crash
     return StageResult::reject("the sensor origin lies outside the map's key range");
   }
-  if (grid != nullptr) window_->afterScan(*grid, job.robot_id, job.scan.origin(), publish_decay);
+  if (grid != nullptr)
+    window_->afterScan(*grid, job.robot_id, job.scan.origin(), static_cast<double>(job.received_ns) * 1e-9,
+                       publish_decay);
   job.points_rejected += static_cast<std::uint32_t>(stats->rejected);
   job.map_version = version;
   job.in_map_ns = util::wallClockNs();

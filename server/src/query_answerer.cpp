@@ -259,6 +259,15 @@ void QueryAnswerer::box(const BoxQuery& q, Answer& a) {
       }
       out.cells.push_back(m.converter().toCoord(k));
     });
+    // With a map window, say how much of the box the answer could not read (issue 22).
+    if (const auto* grid = dynamic_cast<const map::GridMap*>(&m); grid && grid->outOfMemoryCount() > 0) {
+      out.blocks_not_in_memory = static_cast<std::uint32_t>(std::min<std::size_t>(
+          grid->outOfMemoryIn(lo, hi).size(), std::numeric_limits<std::uint32_t>::max()));
+      if (out.blocks_not_in_memory > 0)
+        a.message =
+            fmt::format("{} map blocks in the box are stored out of memory: their cells are not listed",
+                        out.blocks_not_in_memory);
+    }
     a.map_version = version;
     return 0;
   });
@@ -291,8 +300,15 @@ void QueryAnswerer::ray(const RayQuery& q, Answer& a) {
     }
     double t = 0.0;
     a.message = "no occupied cell within max_range";
+    const auto* grid = dynamic_cast<const map::GridMap*>(&m);
+    const bool some_out = grid != nullptr && grid->outOfMemoryCount() > 0;
     while (t <= q.max_range) {
       const std::optional<float> v = m.logOdds(key);
+      if (!v && some_out && !grid->inMemory(key)) {
+        out.reached_not_in_memory = true;
+        a.message = fmt::format("reached a map block stored out of memory at {:.2f} m", t);
+        return 0;
+      }
       if (v && *v >= threshold) {
         out.hit = true;
         out.hit_point = conv.toCoord(key);

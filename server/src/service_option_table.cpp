@@ -62,6 +62,10 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
           "when the exact map's memory passes this many MB, the least recently updated blocks leave it, "
           "down to 90% (0: no cap)")
         .range(0.0, 1e7);
+    t.add("window-robot-timeout-s", o.window.robot_timeout_s,
+          "a robot whose latest scan is this many seconds old (map time: the scans' receive time) no longer "
+          "keeps the blocks around it in memory (0: robots are never forgotten)")
+        .range(0.0, 1e9);
     t.add("keep-evicted-blocks", o.window.store,
           "true: blocks that leave memory are kept in DATA_DIR/blocks and load again when a scan reaches "
           "them (the map stays the map of every scan); false: they are forgotten")

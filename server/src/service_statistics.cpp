@@ -43,7 +43,10 @@ std::string ServiceStatistics::summaryLine() const {
                     t.durable_scans, t.duplicates, static_cast<double>(durability.bytes) / 1e6,
                     durability.syncs, durability.sync_ms.p99_ms, durability.snapshots,
                     durability.failed ? "; FAILED: " + durability.last_error : std::string())
-              : std::string("; journal off"));
+              : std::string("; journal off")) +
+         (window ? fmt::format("; window: {} blocks out of memory, {} left, {} came back, {} store failures",
+                               window->blocks_out, window->left, window->came_back, window->store_failures)
+                 : std::string());
 }
 
 std::uint64_t residentBytes() {

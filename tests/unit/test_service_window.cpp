@@ -3,6 +3,7 @@
 // answers exactly the offline map's value, or says it is stored out of memory. Also across a restart.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -111,6 +112,100 @@ TEST_F(ServiceWindow, FarBlocksLeaveAndComeBackAndEveryCellIsTheOfflineMapsOrSay
     return static_cast<const map::GridMap&>(m).blockCount();
   });
   EXPECT_LT(in_memory, static_cast<const map::GridMap&>(*offline(scans, o.map)).blockCount() * 3 / 4);
+}
+
+TEST_F(ServiceWindow, BoxAndRayQueriesSayWhatIsStoredAndTheStatisticsCountIt) {
+  MapService s(o);
+  submitAll(s, scans, 0, forward);
+  const auto w = s.windowStats();
+  ASSERT_GT(w->blocks_out, 0u);
+  // A box over the whole map: every stored block is named, and the cells listed are exactly the offline
+  // map's occupied cells that are still in memory.
+  const auto expected = offline({scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(forward)}, o.map);
+  const float threshold = map::OccupancyParams::logOdds(expected->params().occupied_threshold);
+  std::vector<geometry::Vec3f> occupied;
+  expected->forEachCell([&](const geometry::VoxelKey& k, float v) {
+    if (v >= threshold) occupied.push_back(expected->converter().toCoord(k));
+  });
+  const auto states = std::get<PointsAnswer>(s.answer(PointsQuery{occupied}).result).states;
+  const auto in_memory = static_cast<std::size_t>(
+      std::count_if(states.begin(), states.end(), [](CellState c) { return c != CellState::kNotInMemory; }));
+  ASSERT_LT(in_memory, occupied.size());
+  BoxQuery box;
+  box.min = {-1000, -1000, -100};
+  box.max = {1000, 1000, 100};
+  box.limit = 1'000'000;
+  const Answer a = s.answer(box);
+  ASSERT_EQ(a.status, Status::kOk) << a.message;
+  const auto& b = std::get<BoxAnswer>(a.result);
+  EXPECT_EQ(b.blocks_not_in_memory, w->blocks_out);
+  EXPECT_EQ(b.cells.size(), in_memory);
+  EXPECT_NE(a.message.find("stored out of memory"), std::string::npos) << a.message;
+  // A box around the robot holds no stored block.
+  const geometry::Vec3f here = scans[forward - 1].origin();
+  box.min = here - geometry::Vec3f(5, 5, 5);
+  box.max = here + geometry::Vec3f(5, 5, 5);
+  EXPECT_EQ(std::get<BoxAnswer>(s.answer(box).result).blocks_not_in_memory, 0u);
+  // A ray from the robot back toward the start, unknown cells ignored: it stops where the stored blocks
+  // begin instead of passing them as unknown. Within the radius, nothing is stored.
+  RayQuery back;
+  back.origin = here;
+  back.direction = (scans[0].origin() - here).normalized();
+  back.max_range = (scans[0].origin() - here).norm();
+  back.ignore_unknown = true;
+  const Answer ra = s.answer(back);
+  ASSERT_EQ(ra.status, Status::kOk) << ra.message;
+  const auto& r = std::get<RayAnswer>(ra.result);
+  EXPECT_FALSE(r.hit) << ra.message;
+  EXPECT_TRUE(r.reached_not_in_memory) << ra.message;
+  RayQuery ahead = back;
+  ahead.direction = -back.direction;
+  ahead.max_range = static_cast<float>(o.window.radius_m / 2);
+  EXPECT_FALSE(std::get<RayAnswer>(s.answer(ahead).result).reached_not_in_memory);
+  // The statistics carry the window's counters.
+  const ServiceStatistics st = s.statistics();
+  ASSERT_TRUE(st.window);
+  EXPECT_EQ(st.window->blocks_out, w->blocks_out);
+  EXPECT_EQ(st.window->left, w->left);
+  EXPECT_NE(st.summaryLine().find("blocks out of memory"), std::string::npos);
+}
+
+/// Blocks around a robot that sent one scan and then nothing: forgotten after the timeout, kept without it.
+std::size_t storedAroundAParkedRobot(ServiceOptions o, const std::vector<io::Scan>& scans, std::size_t n,
+                                     std::uint64_t* forgotten) {
+  MapService s(o);
+  const std::int64_t t0 = 1'700'000'000'000'000'000;
+  Outcomes out;
+  server::ScanJob parked = jobOf(scans[0], "parked", 0);
+  parked.received_ns = t0;
+  EXPECT_TRUE(s.submit(std::move(parked), out.callback()).accepted);
+  for (std::size_t i = 1; i < n; ++i) {
+    server::ScanJob j = jobOf(scans[i], "driver", i);
+    j.received_ns = t0 + static_cast<std::int64_t>(i) * 10'000'000'000;  // a scan every 10 s of map time
+    EXPECT_TRUE(s.submit(std::move(j), out.callback()).accepted);
+  }
+  EXPECT_TRUE(out.waitFor(n));
+  EXPECT_EQ(out.count(ScanOutcome::kInMap), n) << out.lastWhy();
+  *forgotten = s.windowStats()->robots_forgotten;
+  // The cells the parked robot's scan saw within 5 m of it.
+  std::vector<geometry::Vec3f> near;
+  for (const auto& p : scans[0].worldPoints())
+    if ((p - scans[0].origin()).norm() < 5.0f) near.push_back(p);
+  EXPECT_GT(near.size(), 100u);
+  const auto states = std::get<PointsAnswer>(s.answer(PointsQuery{near}).result).states;
+  return static_cast<std::size_t>(std::count(states.begin(), states.end(), CellState::kNotInMemory));
+}
+
+TEST_F(ServiceWindow, ARobotThatFallsSilentIsForgottenAfterTheTimeout) {
+  o.window.robot_timeout_s = 30.0;
+  std::uint64_t forgotten = 0;
+  EXPECT_GT(storedAroundAParkedRobot(o, scans, forward, &forgotten), 100u) << "its neighbourhood left memory";
+  EXPECT_EQ(forgotten, 1u);
+  o.window.robot_timeout_s = 0.0;  // never: the parked robot keeps its neighbourhood in memory
+  TempDir other;
+  o.data_dir = (other.path / "data").string();
+  EXPECT_EQ(storedAroundAParkedRobot(o, scans, forward, &forgotten), 0u);
+  EXPECT_EQ(forgotten, 0u);
 }
 
 TEST_F(ServiceWindow, ARestartFromSnapshotAndJournalKeepsWhatWasStored) {

@@ -119,14 +119,18 @@ TEST(Wire, AnswersConvertToReplies) {
   EXPECT_EQ(rp.status(), msg::STATUS_OK);
   EXPECT_EQ(rp.map_version(), 11u);
   EXPECT_EQ(rp.states(), (std::vector<std::uint8_t>{msg::CELL_FREE, msg::CELL_OCCUPIED, msg::CELL_UNKNOWN}));
-  a.result = BoxAnswer{{Vec3f(1, 2, 3)}, true};
+  a.result = BoxAnswer{{Vec3f(1, 2, 3)}, true, 7};
   rp = toReply(rq, a);
   EXPECT_EQ(rp.cells(), (std::vector<float>{1, 2, 3}));
   EXPECT_TRUE(rp.truncated());
+  EXPECT_EQ(rp.blocks_not_in_memory(), 7u);
   a.result = RayAnswer{true, Vec3f(4, 5, 6)};
   rp = toReply(rq, a);
   EXPECT_TRUE(rp.hit());
   EXPECT_EQ(rp.hit_point()[2], 6.0f);
+  EXPECT_FALSE(rp.ray_reached_not_in_memory());
+  a.result = RayAnswer{false, Vec3f::Zero(), true};
+  EXPECT_TRUE(toReply(rq, a).ray_reached_not_in_memory());
   MapSummary s;
   s.known_cells = 10;
   s.bounds_max = Vec3f(1, 1, 1);
@@ -189,6 +193,16 @@ TEST(Wire, StatisticsConvert) {
   EXPECT_EQ(m.queries_answered(), 8u);
   EXPECT_EQ(m.commands_failed(), 2u);
   EXPECT_EQ(m.map_stats().map_version(), 4u);
+  EXPECT_FALSE(m.window().enabled()) << "no window";
+  s.window = MapWindowStats{3, 10, 7, 0, 4096, 1, 2};
+  const msg::ServerStatistics w = toWire(s);
+  EXPECT_TRUE(w.window().enabled());
+  EXPECT_EQ(w.window().blocks_out_of_memory(), 3u);
+  EXPECT_EQ(w.window().blocks_evicted(), 10u);
+  EXPECT_EQ(w.window().blocks_returned(), 7u);
+  EXPECT_EQ(w.window().bytes_stored(), 4096u);
+  EXPECT_EQ(w.window().store_failures(), 1u);
+  EXPECT_EQ(w.window().robots_forgotten(), 2u);
 }
 
 TEST(Wire, AnotherServersStartIsReadOnlyFromPlausibleStatistics) {

@@ -159,8 +159,8 @@ msg::QueryReply toReply(const msg::QueryRequest& rq, Answer a) {
     rp.probabilities(std::move(p->probabilities));
     rp.states().resize(p->states.size());
     std::transform(p->states.begin(), p->states.end(), rp.states().begin(), [](CellState c) {
-      return c == CellState::kOccupied ? msg::CELL_OCCUPIED
-             : c == CellState::kFree   ? msg::CELL_FREE
+      return c == CellState::kOccupied      ? msg::CELL_OCCUPIED
+             : c == CellState::kFree        ? msg::CELL_FREE
              : c == CellState::kNotInMemory ? msg::CELL_NOT_IN_MEMORY
                                             : msg::CELL_UNKNOWN;
     });
@@ -168,9 +168,11 @@ msg::QueryReply toReply(const msg::QueryRequest& rq, Answer a) {
     rp.cells().reserve(3 * b->cells.size());
     for (const Vec3f& c : b->cells) rp.cells().insert(rp.cells().end(), {c.x(), c.y(), c.z()});
     rp.truncated(b->truncated);
+    rp.blocks_not_in_memory(b->blocks_not_in_memory);
   } else if (const auto* r = std::get_if<RayAnswer>(&a.result)) {
     rp.hit(r->hit);
     rp.hit_point(arr(r->hit_point));
+    rp.ray_reached_not_in_memory(r->reached_not_in_memory);
   } else if (const auto* s = std::get_if<MapSummary>(&a.result)) {
     rp.stats(toWire(*s));
   }
@@ -271,6 +273,16 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
   m.journal_failures(s.durability.failures);
   m.snapshots(s.durability.snapshots);
   m.recovered_records(s.durability.recovered_records);  // counted by the edge's readers, not the service
+  if (s.window) {
+    m.window().enabled(true);
+    m.window().blocks_out_of_memory(s.window->blocks_out);
+    m.window().blocks_evicted(s.window->left);
+    m.window().blocks_returned(s.window->came_back);
+    m.window().blocks_dropped(s.window->dropped);
+    m.window().bytes_stored(s.window->bytes_stored);
+    m.window().store_failures(s.window->store_failures);
+    m.window().robots_forgotten(s.window->robots_forgotten);
+  }
   return m;
 }
 

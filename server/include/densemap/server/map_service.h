@@ -18,9 +18,9 @@
 #include "densemap/server/durability/data_directory.h"
 #include "densemap/server/durability/journal_stage.h"
 #include "densemap/server/latency_window.h"
-#include "densemap/server/map_window.h"
 #include "densemap/server/map_directory.h"
 #include "densemap/server/map_stores.h"
+#include "densemap/server/map_window.h"
 #include "densemap/server/pipeline.h"
 #include "densemap/server/query.h"
 #include "densemap/server/query_answerer.h"
@@ -94,6 +94,7 @@ class MapService {
   CommandResult runChange(std::shared_ptr<MapChange> change);
   CommandResult save(const SaveCommand& c);
   CommandResult load(const LoadCommand& c);
+
  public:
   /// The map window's figures (null without one).
   std::optional<MapWindow::Stats> windowStats() const {
@@ -101,7 +102,6 @@ class MapService {
   }
 
  private:
-
   ServiceOptions options_;
   std::chrono::steady_clock::time_point started_;
   std::unique_ptr<MapStore> store_;

@@ -18,6 +18,7 @@
 
 #include "densemap/map/grid_map.h"
 #include "densemap/server/durability/block_store.h"
+#include "densemap/server/map_window_stats.h"
 #include "densemap/util/log_throttle.h"
 
 namespace densemap::server {
@@ -26,6 +27,8 @@ struct MapWindowOptions {
   double radius_m = 0.0;    ///< 0: no window
   double max_map_mb = 0.0;  ///< 0: no cap
   bool store = true;        ///< false: blocks that leave memory are forgotten
+  /// A robot whose last scan is this much map time old no longer keeps blocks in memory (0: never).
+  double robot_timeout_s = 300.0;
   /// False without a journal: no snapshot will name a file, so a block's file goes as soon as it comes back.
   bool snapshots = true;
   bool enabled() const { return radius_m > 0.0 || max_map_mb > 0.0; }
@@ -42,8 +45,9 @@ class MapWindow {
   /// nothing changed, and the scan must not be applied (it would overwrite the stored cells).
   void bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
                  const Publisher& publish);
-  /// After a scan of `robot` from `origin`: blocks leave memory (removed inside publish, written after).
-  void afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
+  /// After a scan of `robot` from `origin` at map time `now_s` (the scan's receive time): robots silent
+  /// past the timeout are forgotten, then blocks leave memory (removed inside publish, written after).
+  void afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin, double now_s,
                  const Publisher& publish);
   /// A reset or a loaded map: no block is stored any more (the files go at the next snapshot's collect).
   void forgetAll();
@@ -58,10 +62,7 @@ class MapWindow {
   /// writer thread at the next scan). Any thread.
   void snapshotWritten(std::string state);
 
-  struct Stats {
-    std::uint64_t blocks_out = 0, left = 0, came_back = 0, dropped = 0, bytes_stored = 0;
-    std::uint64_t store_failures = 0;  ///< blocks kept in memory because the store could not take them
-  };
+  using Stats = MapWindowStats;
   Stats stats() const;
   const MapWindowOptions& options() const { return options_; }
 
@@ -71,13 +72,17 @@ class MapWindow {
 
   MapWindowOptions options_;
   std::unique_ptr<durability::BlockStore> store_;
-  std::map<std::string, geometry::Vec3f> robots_;           // latest sensor position per robot
+  struct RobotPlace {
+    geometry::Vec3f position;
+    double last_s;  // map time of its latest scan; NaN when restored from a snapshot (not kept there)
+  };
+  std::map<std::string, RobotPlace> robots_;                // latest sensor position per robot
   std::unordered_map<std::uint64_t, std::uint64_t> index_;  // stored block -> version
   std::uint64_t version_ = 0;
   std::mutex pending_mutex_;
   std::optional<std::string> pending_collect_;
   std::atomic<std::uint64_t> blocks_out_{0}, left_{0}, came_back_{0}, dropped_{0}, bytes_stored_{0},
-      store_failures_{0};
+      store_failures_{0}, robots_forgotten_{0};
   util::LogThrottle throttle_;
 };
 

@@ -56,10 +56,15 @@ struct PointsAnswer {
 struct BoxAnswer {
   std::vector<Vec3f> cells;  ///< centres of occupied cells
   bool truncated = false;    ///< more cells than the limit
+  /// Map blocks in the box stored out of memory (map window): their cells are not in `cells`.
+  std::uint32_t blocks_not_in_memory = 0;
 };
 struct RayAnswer {
   bool hit = false;
   Vec3f hit_point = Vec3f::Zero();  ///< centre of the hit cell
+  /// The ray stopped at a block stored out of memory (map window): nothing is known from there on, even
+  /// with ignore_unknown (an obstacle may be stored there).
+  bool reached_not_in_memory = false;
 };
 /// A map's figures (StatsQuery, and what a save wrote).
 struct MapSummary {

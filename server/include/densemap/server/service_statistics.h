@@ -3,10 +3,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "densemap/server/latency_window.h"
+#include "densemap/server/map_window_stats.h"
 #include "densemap/server/pipeline.h"
 
 namespace densemap::server {
@@ -48,6 +50,7 @@ struct ServiceStatistics {
   std::uint64_t commands_failed = 0;
   std::uint64_t resident_bytes = 0;
   DurabilityStatistics durability;
+  std::optional<MapWindowStats> window;  ///< with --window-radius or --max-map-mb
 
   /// Totals over the robots.
   RobotCounters totals() const;
