@@ -404,8 +404,9 @@ void Ros2Edge::handle(Service& s) {
     // rmw_fastrtps: the reply goes to the client's reply reader (related_sample_identity's writer guid,
     // when the client sent one), carrying the request's sequence number.
     eprosima::fastrtps::rtps::SampleIdentity identity = info.sample_identity;
-    if (info.related_sample_identity.writer_guid() != eprosima::fastrtps::rtps::GUID_t::unknown())
-      identity.writer_guid(info.related_sample_identity.writer_guid());
+    const bool names_its_reader =
+        info.related_sample_identity.writer_guid() != eprosima::fastrtps::rtps::GUID_t::unknown();
+    if (names_its_reader) identity.writer_guid(info.related_sample_identity.writer_guid());
     std::vector<std::uint8_t> reply;
     std::string why;
     bool ok = true;
@@ -457,8 +458,8 @@ void Ros2Edge::handle(Service& s) {
       spdlog::warn("{}: request refused: {}", s.name, why);
       return;
     }
-    if (identity.writer_guid() != eprosima::fastrtps::rtps::GUID_t::unknown() &&
-        !s.reply_readers.waitFor(identity.writer_guid(), kReplyReaderWait)) {
+    // Only a client that named its reply reader can be waited for (otherwise the GUID is its writer's).
+    if (names_its_reader && !s.reply_readers.waitFor(identity.writer_guid(), kReplyReaderWait)) {
       std::lock_guard lock(mutex_);
       ++counters_.replies_unmatched;
       spdlog::warn(
