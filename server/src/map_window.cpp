@@ -32,28 +32,28 @@ void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const g
   // Read and decode before taking the lock: readers wait only for the pointers to move.
   std::vector<std::pair<std::uint64_t, std::unique_ptr<map::PaletteBlock>>> back;
   for (std::uint64_t id : ids) {
-    auto it = index_.find(id);
-    if (it == index_.end()) {  // dropped (never stored): it comes back empty
+    const std::uint64_t* version = index_.find(id);
+    if (version == nullptr) {  // dropped (never stored): it comes back empty
       back.emplace_back(id, nullptr);
       continue;
     }
     try {
       back.emplace_back(
-          id, std::make_unique<map::PaletteBlock>(map::PaletteBlock::decode(store_->get(id, it->second))));
+          id, std::make_unique<map::PaletteBlock>(map::PaletteBlock::decode(store_->get(id, *version))));
     } catch (const util::FormatError& e) {
       throw durability::StorageError(
           fmt::format("map block file {}: {}",
-                      (store_->dir() / durability::blockFileName(id, it->second)).string(), e.what()));
+                      (store_->dir() / durability::blockFileName(id, *version)).string(), e.what()));
     }
   }
   publish([&] {
     for (auto& [id, block] : back) m.putBlock(id, std::move(block));
   });
   for (const auto& [id, block] : back) {
-    auto it = index_.find(id);
-    if (it == index_.end()) continue;
-    if (!options_.snapshots) store_->remove(id, it->second);
-    index_.erase(it);
+    const std::uint64_t* version = index_.find(id);
+    if (version == nullptr) continue;
+    if (!options_.snapshots) store_->remove(id, *version);
+    index_.erase(id);
   }
   came_back_ += back.size();
   blocks_out_ = m.outOfMemoryCount();
@@ -113,7 +113,7 @@ void MapWindow::evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, co
                        e.what());
         break;
       }
-      index_[id] = version;
+      index_.insert(id, version);
       bytes_stored_ += bytes.size();
       leaving.push_back(id);
     }
@@ -150,10 +150,10 @@ std::string MapWindow::snapshotState() {
     w.put(p.position.z());
   }
   w.put(static_cast<std::uint64_t>(index_.size()));
-  for (const auto& [id, version] : index_) {
+  index_.forEach([&](std::uint64_t id, std::uint64_t version) {
     w.put(id);
     w.put(version);
-  }
+  });
   return out;
 }
 
@@ -161,7 +161,7 @@ namespace {
 struct DecodedState {
   std::uint64_t version = 0;
   std::map<std::string, geometry::Vec3f> robots;
-  std::unordered_map<std::uint64_t, std::uint64_t> index;
+  map::BlockIdMap<std::uint64_t> index;
 };
 
 DecodedState decodeState(std::string_view bytes) {
@@ -180,8 +180,9 @@ DecodedState decodeState(std::string_view bytes) {
   for (std::uint64_t i = 0; i < blocks; ++i) {
     const auto id = r.get<std::uint64_t>("block id");
     const auto version = r.get<std::uint64_t>("block version");
+    if (!map::GridMap::isBlockId(id)) r.fail("a stored block's id is not a map block's");
     if (version == 0 || version > s.version) r.fail("a stored block's version is past the window's counter");
-    if (!s.index.emplace(id, version).second) r.fail("a block stored twice");
+    if (!s.index.insert(id, version)) r.fail("a block stored twice");
   }
   if (!r.done()) r.fail("bytes after the window state");
   return s;
@@ -197,7 +198,7 @@ void MapWindow::restoreState(std::string_view state, map::GridMap& m) {
   if (!options_.store && !index_.empty())
     throw std::runtime_error(
         "the snapshot has stored map blocks but the server drops them (--evicted-blocks)");
-  for (const auto& [id, version] : index_) m.markOutOfMemory(id);
+  index_.forEach([&](std::uint64_t id, std::uint64_t) { m.markOutOfMemory(id); });
   blocks_out_ = m.outOfMemoryCount();
 }
 
@@ -215,9 +216,9 @@ void MapWindow::collectPending() {
   if (!state || !store_) return;
   const DecodedState snap = decodeState(*state);
   const std::size_t removed = store_->collect([&](std::uint64_t id, std::uint64_t version) {
-    auto a = snap.index.find(id);
-    auto b = index_.find(id);
-    return (a != snap.index.end() && a->second == version) || (b != index_.end() && b->second == version);
+    const std::uint64_t* a = snap.index.find(id);
+    const std::uint64_t* b = index_.find(id);
+    return (a != nullptr && *a == version) || (b != nullptr && *b == version);
   });
   if (removed > 0) spdlog::debug("map window: removed {} block files no index names", removed);
 }

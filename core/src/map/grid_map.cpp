@@ -230,13 +230,12 @@ void GridMap::putBlock(std::uint64_t id, std::unique_ptr<Block> block) {
 
 std::vector<std::uint64_t> GridMap::outOfMemoryIn(const VoxelKey& lo, const VoxelKey& hi) const {
   std::vector<std::uint64_t> ids;
-  for (std::uint64_t id : out_of_memory_) {
-    const VoxelKey bk = VoxelKey::fromPacked(id);
-    bool overlaps = true;
-    for (int a = 0; a < 3; ++a)
-      overlaps &= bk[a] >= (lo[a] >> kBlockShift) && bk[a] <= (hi[a] >> kBlockShift);
-    if (overlaps) ids.push_back(id);
-  }
+  auto blockOf = [](const VoxelKey& k) {
+    return VoxelKey{{static_cast<geometry::KeyCoord>(k[0] >> kBlockShift),
+                     static_cast<geometry::KeyCoord>(k[1] >> kBlockShift),
+                     static_cast<geometry::KeyCoord>(k[2] >> kBlockShift)}};
+  };
+  out_of_memory_.forEachInBox(blockOf(lo), blockOf(hi), [&](std::uint64_t id) { ids.push_back(id); });
   return ids;
 }
 
@@ -333,8 +332,9 @@ std::size_t GridMap::denseBlockCount() const {
 
 std::size_t GridMap::memoryBytes() const {
   // Blocks (indices, palettes, dense fallbacks) plus a rough per-entry cost of the hash map (node, pointer)
-  // and its buckets.
-  std::size_t bytes = blocks_.size() * 48 + blocks_.bucket_count() * sizeof(void*);
+  // and its buckets, and what remembers the blocks out of memory.
+  std::size_t bytes =
+      blocks_.size() * 48 + blocks_.bucket_count() * sizeof(void*) + out_of_memory_.memoryBytes();
   for (const auto& [id, b] : blocks_) bytes += b->memoryBytes();
   return bytes;
 }

@@ -9,9 +9,9 @@
 #include <memory>
 #include <span>
 #include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
+#include "densemap/map/block_id_map.h"
 #include "densemap/map/decay.h"
 #include "densemap/map/occupancy_map.h"
 #include "densemap/map/palette_block.h"
@@ -60,6 +60,11 @@ class GridMap : public OccupancyMap {
 
   const Block* findBlock(const VoxelKey& key) const;
   static std::uint64_t blockIdOf(const VoxelKey& key) { return blockId(key); }
+  /// True for the ids blockIdOf can return (block coordinates below 2^(16 - kBlockShift)).
+  static bool isBlockId(std::uint64_t id) {
+    constexpr std::uint64_t kCoordBits = ~std::uint64_t{0xFFFF >> kBlockShift} & 0xFFFF;
+    return (id >> 48) == 0 && (id & (kCoordBits << 32 | kCoordBits << 16 | kCoordBits)) == 0;
+  }
   const Block* blockById(std::uint64_t id) const {
     auto it = blocks_.find(id);
     return it == blocks_.end() ? nullptr : it->second.get();
@@ -112,7 +117,7 @@ class GridMap : public OccupancyMap {
   DecayOptions decay_{};
   double decay_clock_s_ = std::numeric_limits<double>::quiet_NaN();
   std::unordered_map<std::uint64_t, std::unique_ptr<Block>> blocks_;
-  std::unordered_set<std::uint64_t> out_of_memory_;
+  BlockIdSet out_of_memory_;  // a few bytes per block: it lives as long as the server
   std::uint64_t scans_ = 0;
   std::vector<std::unique_ptr<Block>> spare_;  // blocks swapped out by applyPublished, reused as copies
 };

@@ -13,9 +13,9 @@
 #include <optional>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <vector>
 
+#include "densemap/map/block_id_map.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/server/durability/block_store.h"
 #include "densemap/server/map_window_stats.h"
@@ -76,8 +76,8 @@ class MapWindow {
     geometry::Vec3f position;
     double last_s;  // map time of its latest scan; NaN when restored from a snapshot (not kept there)
   };
-  std::map<std::string, RobotPlace> robots_;                // latest sensor position per robot
-  std::unordered_map<std::uint64_t, std::uint64_t> index_;  // stored block -> version
+  std::map<std::string, RobotPlace> robots_;  // latest sensor position per robot
+  map::BlockIdMap<std::uint64_t> index_;      // stored block -> version
   std::uint64_t version_ = 0;
   std::mutex pending_mutex_;
   std::optional<std::string> pending_collect_;
