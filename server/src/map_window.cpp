@@ -25,7 +25,7 @@ MapWindow::MapWindow(MapWindowOptions options, std::unique_ptr<durability::Block
 }
 
 void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
-                          const Publisher& publish) {
+                          float reach_m, const Publisher& publish) {
   if (m.outOfMemoryCount() == 0) return;
   const std::vector<std::uint64_t> ids = m.outOfMemoryIn(lo, hi);
   if (ids.empty()) return;
@@ -57,6 +57,14 @@ void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const g
   }
   came_back_ += back.size();
   blocks_out_ = m.outOfMemoryCount();
+  // A radius below the sensor's range sends the far part of every scan out of memory and back with the
+  // next one: correct, but every scan then pays a store and a load.
+  if (options_.radius_m > 0.0 && reach_m > options_.radius_m && thrash_throttle_.due())
+    spdlog::warn(
+        "map window: a scan reaches {:.0f} m but --window-radius is {:.0f} m, so its far blocks leave memory "
+        "after each scan and come back with the next ({} came back so far); make the radius at least the "
+        "sensor's range",
+        reach_m, options_.radius_m, came_back_.load());
 }
 
 void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,

@@ -1,6 +1,7 @@
 #include "densemap/server/occupancy_stage.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <fmt/format.h>
 
@@ -40,6 +41,7 @@ StageResult OccupancyStage::apply(ScanJob& job) {
     geometry::VoxelKey lo, hi;
     if (grid->converter().toKey(job.scan.origin(), lo)) {
       hi = lo;
+      float reach2 = 0.0f;
       for (const auto& p : world) {
         geometry::VoxelKey k;
         if (!grid->converter().toKey(p, k)) continue;  // the engine skips these points too
@@ -47,9 +49,10 @@ StageResult OccupancyStage::apply(ScanJob& job) {
           lo[a] = std::min(lo[a], k[a]);
           hi[a] = std::max(hi[a], k[a]);
         }
+        reach2 = std::max(reach2, (p - job.scan.origin()).squaredNorm());
       }
       try {
-        window_->bringBack(*grid, lo, hi, publish_decay);
+        window_->bringBack(*grid, lo, hi, std::sqrt(reach2), publish_decay);
       } catch (const std::exception& e) {
         return StageResult::reject(
             fmt::format("a stored map block this scan reaches cannot be read ({}); the scan is refused so it "
@@ -83,9 +86,9 @@ void OccupancyStage::applyChange(MapChange& change) {
     if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
       const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
       if (auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr)
-        window_->bringBack(*grid, lo, hi, [&](const std::function<void()>& commit) {
+        window_->bringBack(*grid, lo, hi, 0.0f, [&](const std::function<void()>& commit) {
           store_.write([&](map::OccupancyMap&) { commit(); });
-        });  // the box's stored cells are forgotten too
+        });  // the box's stored cells are forgotten too (reach 0: not a scan)
       store_.write([&](map::OccupancyMap& m) { r.cells_changed = m.eraseBox(lo, hi); });
       r.message = fmt::format("cleared {} cells", r.cells_changed);
     } else if (std::holds_alternative<ResetCommand>(change.command)) {

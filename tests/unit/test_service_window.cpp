@@ -6,6 +6,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <sstream>
+
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "densemap/io/scan_source.h"
 #include "densemap/map/grid_map.h"
@@ -206,6 +211,40 @@ TEST_F(ServiceWindow, ARobotThatFallsSilentIsForgottenAfterTheTimeout) {
   o.data_dir = (other.path / "data").string();
   EXPECT_EQ(storedAroundAParkedRobot(o, scans, forward, &forgotten), 0u);
   EXPECT_EQ(forgotten, 0u);
+}
+
+/// What the service logs (warnings and up) while `run` runs.
+template <class F>
+std::string logOf(F run) {
+  std::ostringstream out;
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(out);
+  auto logger = spdlog::default_logger();
+  logger->sinks().push_back(sink);
+  run();
+  logger->sinks().pop_back();
+  return out.str();
+}
+
+TEST_F(ServiceWindow, ARadiusBelowTheSensorsRangeIsReportedOnceItMakesBlocksComeBack) {
+  // 20 m against the simulator's scans reaching farther: the far blocks of a scan leave and come back.
+  const std::string warned = logOf([&] {
+    MapService s(o);
+    submitAll(s, scans, 0, scans.size());
+  });
+  EXPECT_NE(warned.find("make the radius at least the sensor's range"), std::string::npos) << warned;
+  // A cap alone also brings blocks back, but says nothing about a radius.
+  o.window.radius_m = 0.0;
+  o.window.max_map_mb = 0.5;
+  TempDir other;
+  o.data_dir = (other.path / "data").string();
+  std::uint64_t came_back = 0;
+  const std::string quiet = logOf([&] {
+    MapService s(o);
+    submitAll(s, scans, 0, scans.size());
+    came_back = s.windowStats()->came_back;
+  });
+  EXPECT_GT(came_back, 0u);
+  EXPECT_EQ(quiet.find("--window-radius"), std::string::npos) << quiet;
 }
 
 TEST_F(ServiceWindow, ARestartFromSnapshotAndJournalKeepsWhatWasStored) {

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -40,10 +41,11 @@ class MapWindow {
   /// `store` is used when options.store (then it must not be null).
   MapWindow(MapWindowOptions options, std::unique_ptr<durability::BlockStore> store);
 
-  /// Before a scan whose rays lie in the key box [lo, hi]: its stored blocks come back (inside publish).
+  /// Before a scan whose rays lie in the key box [lo, hi] and reach `reach_m` from its origin: its stored
+  /// blocks come back (inside publish).
   /// Throws durability::StorageError or util::FormatError (naming the file) when one cannot be read; then
   /// nothing changed, and the scan must not be applied (it would overwrite the stored cells).
-  void bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
+  void bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi, float reach_m,
                  const Publisher& publish);
   /// After a scan of `robot` from `origin` at map time `now_s` (the scan's receive time): robots silent
   /// past the timeout are forgotten, then blocks leave memory (removed inside publish, written after).
@@ -84,6 +86,7 @@ class MapWindow {
   std::atomic<std::uint64_t> blocks_out_{0}, left_{0}, came_back_{0}, dropped_{0}, bytes_stored_{0},
       store_failures_{0}, robots_forgotten_{0};
   util::LogThrottle throttle_;
+  util::LogThrottle thrash_throttle_{std::chrono::seconds(60)};  // a lasting condition: once a minute
 };
 
 }  // namespace densemap::server
