@@ -144,6 +144,11 @@ docker logs "$runner" 2>&1
 server="$("${compose[@]}" "${compose_args[@]}" ps -q server)"
 health="$(docker inspect -f '{{if .State.Health}}{{.State.Health.Status}}{{else}}none{{end}}' "$server" 2> /dev/null || echo unknown)"
 log "server container health: $health"
+if [ "$status" != "0" ]; then  # the clients' own words, before down removes them (a missing summary says why here)
+  log "the run failed; the clients' containers and the end of their logs:"
+  "${compose[@]}" "${compose_args[@]}" ps 2>&1 || true
+  "${compose[@]}" "${compose_args[@]}" logs --no-color --tail 40 robot query 2>&1 || true
+fi
 "${compose[@]}" "${compose_args[@]}" down -v --remove-orphans > "$work/down.log" 2>&1 || true
 compose_args=()
 if [ -n "$json" ]; then
