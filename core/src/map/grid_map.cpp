@@ -230,12 +230,7 @@ void GridMap::putBlock(std::uint64_t id, std::unique_ptr<Block> block) {
 
 std::vector<std::uint64_t> GridMap::outOfMemoryIn(const VoxelKey& lo, const VoxelKey& hi) const {
   std::vector<std::uint64_t> ids;
-  auto blockOf = [](const VoxelKey& k) {
-    return VoxelKey{{static_cast<geometry::KeyCoord>(k[0] >> kBlockShift),
-                     static_cast<geometry::KeyCoord>(k[1] >> kBlockShift),
-                     static_cast<geometry::KeyCoord>(k[2] >> kBlockShift)}};
-  };
-  out_of_memory_.forEachInBox(blockOf(lo), blockOf(hi), [&](std::uint64_t id) { ids.push_back(id); });
+  out_of_memory_.forEachInBox(blockKey(lo), blockKey(hi), [&](std::uint64_t id) { ids.push_back(id); });
   return ids;
 }
 

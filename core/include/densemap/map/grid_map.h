@@ -98,12 +98,13 @@ class GridMap : public OccupancyMap {
 
  private:
   void applyOverflow(const ScanEvidence& evidence);
-  static std::uint64_t blockId(const VoxelKey& key) {
+  /// The block coordinates of a voxel key; packed, they are the block's id.
+  static VoxelKey blockKey(const VoxelKey& key) {
     return VoxelKey{{static_cast<geometry::KeyCoord>(key[0] >> kBlockShift),
                      static_cast<geometry::KeyCoord>(key[1] >> kBlockShift),
-                     static_cast<geometry::KeyCoord>(key[2] >> kBlockShift)}}
-        .packed();
+                     static_cast<geometry::KeyCoord>(key[2] >> kBlockShift)}};
   }
+  static std::uint64_t blockId(const VoxelKey& key) { return blockKey(key).packed(); }
   /// A new block is current at the last decay step (it takes the whole next step's decay).
   double newBlockTime() const { return std::isnan(decay_clock_s_) ? 0.0 : decay_clock_s_; }
   std::unique_ptr<Block> newBlock() const {
