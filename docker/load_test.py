@@ -220,6 +220,26 @@ def summaries(directory):
     return sorted(glob.glob(os.path.join(directory, "robot-*.json")) + glob.glob(os.path.join(directory, "query-*.json")))
 
 
+def client_pids(domain):
+    """The densemap-replay processes on `domain` this runner can see (pid: host: every one of the machine)."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/comm") as f:
+                if f.read().strip() != "densemap-replay":
+                    continue
+            with open(f"/proc/{entry}/cmdline") as f:
+                args = f.read().split("\0")
+        except OSError:
+            continue
+        if "--domain" in args and args.index("--domain") + 1 < len(args) and \
+                args[args.index("--domain") + 1] == str(domain):
+            pids.append(int(entry))
+    return pids
+
+
 def run_attached(a):
     """Samples the server container's process until every expected client summary is in a.attach."""
     pid = a.server_pid
@@ -233,13 +253,37 @@ def run_attached(a):
         sys.exit(2)
     sampler = Sampler(pid)
     expected = a.robots + a.query_clients
-    deadline = time.time() + a.duration + a.grace
-    while time.time() < deadline and len(summaries(a.attach)) < expected:
+    t0 = time.time()
+    deadline = t0 + a.duration + a.grace
+    # Past the grace, clients that are still running are waited for (up to --max-wait): a server starved of
+    # CPU (a busy CI machine) finishes late but loses nothing, which the report's latencies show; a client
+    # that died or never started ends the wait at once.
+    hard_deadline = t0 + a.duration + max(a.grace, a.max_wait)
+    said = 0.0
+    while len(summaries(a.attach)) < expected:
+        now = time.time()
+        if now >= hard_deadline:
+            break
+        if now >= deadline:
+            running = client_pids(a.domain)
+            if not running:
+                break
+            if now - said >= 30:
+                print(f"load_test: {expected - len(summaries(a.attach))} client summaries missing "
+                      f"{now - t0:.0f} s after the start; {len(running)} client process(es) still running "
+                      f"(pids {' '.join(map(str, running))}): waiting up to {hard_deadline - now:.0f} s more",
+                      file=sys.stderr, flush=True)
+                said = now
         sampler.sample()
         time.sleep(1.0)
     found = len(summaries(a.attach))
     if found < expected:
-        print(f"load_test: only {found} of {expected} client summaries arrived in {a.attach}", file=sys.stderr)
+        print(f"load_test: only {found} of {expected} client summaries arrived in {a.attach} within "
+              f"{time.time() - t0:.0f} s", file=sys.stderr)
+    elif time.time() > deadline:
+        print(f"load_test: the last client summary arrived {time.time() - t0:.0f} s after the start, "
+              f"past the {a.duration + a.grace:.0f} s grace (the server was behind: see the latencies)",
+              file=sys.stderr)
     return sampler, None
 
 
@@ -271,6 +315,8 @@ def main():
     ap.add_argument("--server-match", default=None,
                     help="attach: the server is the densemap-server whose command line contains this text")
     ap.add_argument("--grace", type=float, default=120.0, help="attach: extra seconds to wait for summaries")
+    ap.add_argument("--max-wait", type=float, default=600.0,
+                    help="attach: past the grace, wait this long after the duration for clients still running")
     ap.add_argument("--secure", action="store_true",
                     help="DDS-Security: native, every program gets its own identity (tools/make-security.sh); "
                          "attached, the containers were started secure (recorded in the report)")

@@ -102,7 +102,9 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
             {"blocks_dropped", s.window().blocks_dropped()},
             {"bytes_stored", s.window().bytes_stored()},
             {"store_failures", s.window().store_failures()},
-            {"robots_forgotten", s.window().robots_forgotten()}}}};
+            {"robots_forgotten", s.window().robots_forgotten()},
+            {"blocks_loaded_for_queries", s.window().blocks_loaded_for_queries()},
+            {"query_load_failures", s.window().query_load_failures()}}}};
 }
 
 /// Fails with the reply's status and message when it is not OK.

@@ -295,7 +295,51 @@ void MapService::refuse(const ScanJob& job, const std::string& why, const Outcom
   pipeline_->rejectAtDoor(copy, why);
 }
 
-Answer MapService::answer(const Query& query) { return answerer_->answer(query); }
+namespace {
+
+using KeyBoxes = std::vector<std::pair<geometry::VoxelKey, geometry::VoxelKey>>;
+
+/// The key boxes whose stored blocks an answer could not read (empty when it read everything).
+KeyBoxes storedPartsOf(const Query& q, const Answer& a, const geometry::KeyConverter& conv) {
+  KeyBoxes boxes;
+  if (a.status != Status::kOk) return boxes;
+  if (const auto* p = std::get_if<PointsAnswer>(&a.result)) {
+    const auto& points = std::get<PointsQuery>(q).points;
+    for (std::size_t i = 0; i < p->states.size() && i < points.size(); ++i) {
+      geometry::VoxelKey k;
+      if (p->states[i] == CellState::kNotInMemory && conv.toKey(points[i], k)) boxes.emplace_back(k, k);
+    }
+  } else if (const auto* b = std::get_if<BoxAnswer>(&a.result)) {
+    const auto& box = std::get<BoxQuery>(q);
+    if (b->blocks_not_in_memory > 0) boxes.push_back(boxKeys(conv, box.min, box.max));
+  } else if (const auto* r = std::get_if<RayAnswer>(&a.result)) {
+    geometry::VoxelKey k;
+    if (r->reached_not_in_memory && conv.toKey(r->not_in_memory_at, k)) boxes.emplace_back(k, k);
+  }
+  return boxes;
+}
+
+}  // namespace
+
+Answer MapService::answer(const Query& query) {
+  Answer a = answerer_->answer(query);
+  if (!window_ || options_.window.query_load_s <= 0.0) return a;
+  // --window-query-load-s: what the answer could not read comes back (on the writer thread, in order with
+  // the scans) and the query is answered again. A ray may meet one stored block after another: bounded.
+  const geometry::KeyConverter conv(options_.map.resolution);
+  for (int round = 0; round < kQueryLoadRounds; ++round) {
+    KeyBoxes boxes = storedPartsOf(query, a, conv);
+    if (boxes.empty()) break;
+    const CommandResult r = runChange(std::make_shared<MapChange>(LoadStoredBlocksCommand{std::move(boxes)}));
+    if (r.status != Status::kOk) {  // the answer still says what is not in memory
+      ++query_loads_failed_;
+      a.message += fmt::format(" (could not load the stored blocks: {})", r.message);
+      break;
+    }
+    a = answerer_->answer(query);
+  }
+  return a;
+}
 
 CommandResult MapService::runChange(std::shared_ptr<MapChange> change) {
   auto done = change->done.get_future();

@@ -24,11 +24,44 @@ MapWindow::MapWindow(MapWindowOptions options, std::unique_ptr<durability::Block
   if (store_ && !options_.snapshots) store_->collect([](std::uint64_t, std::uint64_t) { return false; });
 }
 
-void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
-                          float reach_m, const Publisher& publish) {
-  if (m.outOfMemoryCount() == 0) return;
-  const std::vector<std::uint64_t> ids = m.outOfMemoryIn(lo, hi);
-  if (ids.empty()) return;
+std::size_t MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
+                                 float reach_m, const Publisher& publish) {
+  if (m.outOfMemoryCount() == 0) return 0;
+  const std::size_t n = bringBackIds(m, m.outOfMemoryIn(lo, hi), publish);
+  if (n == 0) return 0;
+  came_back_ += n;
+  // A radius below the sensor's range sends the far part of every scan out of memory and back with the
+  // next one: correct, but every scan then pays a store and a load.
+  if (options_.radius_m > 0.0 && reach_m > options_.radius_m && thrash_throttle_.due())
+    spdlog::warn(
+        "map window: a scan reaches {:.0f} m but --window-radius is {:.0f} m, so its far blocks leave memory "
+        "after each scan and come back with the next ({} came back so far); make the radius at least the "
+        "sensor's range",
+        reach_m, options_.radius_m, came_back_.load());
+  return n;
+}
+
+std::size_t MapWindow::bringBackForQuery(
+    map::GridMap& m, const std::vector<std::pair<geometry::VoxelKey, geometry::VoxelKey>>& boxes,
+    const Publisher& publish) {
+  if (m.outOfMemoryCount() == 0) return 0;
+  map::BlockIdSet wanted;
+  for (const auto& [lo, hi] : boxes)
+    for (std::uint64_t id : m.outOfMemoryIn(lo, hi)) wanted.insert(id);
+  std::vector<std::uint64_t> ids;
+  ids.reserve(wanted.size());
+  wanted.forEach([&](std::uint64_t id) { ids.push_back(id); });
+  const std::size_t n = bringBackIds(m, ids, publish);
+  // Kept a while: the next scan would otherwise send them out again (they are far from every robot) before
+  // the query is answered, or before the client's next query of the same place.
+  for (std::uint64_t id : ids) pinned_[id] = last_scan_s_ + options_.query_load_s;
+  loaded_for_queries_ += n;
+  return n;
+}
+
+std::size_t MapWindow::bringBackIds(map::GridMap& m, const std::vector<std::uint64_t>& ids,
+                                    const Publisher& publish) {
+  if (ids.empty()) return 0;
   // Read and decode before taking the lock: readers wait only for the pointers to move.
   std::vector<std::pair<std::uint64_t, std::unique_ptr<map::PaletteBlock>>> back;
   for (std::uint64_t id : ids) {
@@ -55,22 +88,15 @@ void MapWindow::bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const g
     if (!options_.snapshots) store_->remove(id, *version);
     index_.erase(id);
   }
-  came_back_ += back.size();
   blocks_out_ = m.outOfMemoryCount();
-  // A radius below the sensor's range sends the far part of every scan out of memory and back with the
-  // next one: correct, but every scan then pays a store and a load.
-  if (options_.radius_m > 0.0 && reach_m > options_.radius_m && thrash_throttle_.due())
-    spdlog::warn(
-        "map window: a scan reaches {:.0f} m but --window-radius is {:.0f} m, so its far blocks leave memory "
-        "after each scan and come back with the next ({} came back so far); make the radius at least the "
-        "sensor's range",
-        reach_m, options_.radius_m, came_back_.load());
+  return back.size();
 }
 
 void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
                           double now_s, const Publisher& publish) {
   collectPending();
   robots_[robot] = {origin, now_s};
+  last_scan_s_ = now_s;
   // A robot that stopped sending would otherwise hold its neighbourhood in memory forever.
   for (auto it = robots_.begin(); it != robots_.end();) {
     if (std::isnan(it->second.last_s)) it->second.last_s = now_s;  // restored: its clock starts now
@@ -92,13 +118,28 @@ void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geome
     for (const auto& [id, p] : robots_) centres.push_back(p.position);
     ids = m.blocksFartherThan(centres, options_.radius_m);
   }
+  unpin(now_s, ids);
   if (!ids.empty()) evict(m, ids, publish);
   if (options_.max_map_mb > 0.0) {
     const auto cap = static_cast<std::size_t>(options_.max_map_mb * 1e6);
     const std::size_t bytes = m.memoryBytes();
-    // Past the cap, down to 90% of it, so the next scans do not each evict a little.
-    if (bytes > cap) evict(m, m.leastRecentlyUpdated(bytes - cap * 9 / 10), publish);
+    // Past the cap, down to 90% of it, so the next scans do not each evict a little. Blocks a query holds
+    // stay: the cap is then reached once their time is over.
+    if (bytes > cap) {
+      std::vector<std::uint64_t> lru = m.leastRecentlyUpdated(bytes - cap * 9 / 10);
+      unpin(now_s, lru);
+      evict(m, lru, publish);
+    }
   }
+}
+
+void MapWindow::unpin(double now_s, std::vector<std::uint64_t>& ids) {
+  if (pinned_.empty()) return;
+  for (auto it = pinned_.begin(); it != pinned_.end();) {
+    if (std::isnan(it->second)) it->second = now_s + options_.query_load_s;  // loaded before any scan
+    it = now_s >= it->second ? pinned_.erase(it) : std::next(it);
+  }
+  std::erase_if(ids, [this](std::uint64_t id) { return pinned_.count(id) != 0; });
 }
 
 void MapWindow::evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, const Publisher& publish) {
@@ -141,6 +182,7 @@ void MapWindow::evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, co
 void MapWindow::forgetAll() {
   if (store_ && !options_.snapshots) store_->collect([](std::uint64_t, std::uint64_t) { return false; });
   index_.clear();
+  pinned_.clear();
   blocks_out_ = 0;
 }
 
@@ -232,8 +274,8 @@ void MapWindow::collectPending() {
 }
 
 MapWindow::Stats MapWindow::stats() const {
-  return {blocks_out_.load(),   left_.load(),           came_back_.load(),       dropped_.load(),
-          bytes_stored_.load(), store_failures_.load(), robots_forgotten_.load()};
+  return {blocks_out_.load(),   left_.load(),           came_back_.load(),        dropped_.load(),
+          bytes_stored_.load(), store_failures_.load(), robots_forgotten_.load(), loaded_for_queries_.load()};
 }
 
 }  // namespace densemap::server

@@ -91,6 +91,15 @@ void OccupancyStage::applyChange(MapChange& change) {
         });  // the box's stored cells are forgotten too (reach 0: not a scan)
       store_.write([&](map::OccupancyMap& m) { r.cells_changed = m.eraseBox(lo, hi); });
       r.message = fmt::format("cleared {} cells", r.cells_changed);
+    } else if (const auto* load = std::get_if<LoadStoredBlocksCommand>(&change.command)) {
+      auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr;
+      const std::size_t n =
+          grid == nullptr
+              ? 0
+              : window_->bringBackForQuery(*grid, load->boxes, [&](const std::function<void()>& commit) {
+                  store_.write([&](map::OccupancyMap&) { commit(); });
+                });
+      r.message = fmt::format("{} stored blocks back in memory for a query", n);
     } else if (std::holds_alternative<ResetCommand>(change.command)) {
       store_.write([&](map::OccupancyMap& m) {
         r.cells_changed = m.knownCells();

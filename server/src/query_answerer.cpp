@@ -306,6 +306,7 @@ void QueryAnswerer::ray(const RayQuery& q, Answer& a) {
       const std::optional<float> v = m.logOdds(key);
       if (!v && some_out && !grid->inMemory(key)) {
         out.reached_not_in_memory = true;
+        out.not_in_memory_at = conv.toCoord(key);
         a.message = fmt::format("reached a map block stored out of memory at {:.2f} m", t);
         return 0;
       }

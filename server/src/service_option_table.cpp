@@ -66,6 +66,10 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
           "a robot whose latest scan is this many seconds old (map time: the scans' receive time) no longer "
           "keeps the blocks around it in memory (0: robots are never forgotten)")
         .range(0.0, 1e9);
+    t.add("window-query-load-s", o.window.query_load_s,
+          "a query that reaches blocks stored out of memory loads them (waiting for the map's writer) and "
+          "they stay in memory this many seconds of map time; 0: the answer says they are not in memory")
+        .range(0.0, 1e9);
     t.add("keep-evicted-blocks", o.window.store,
           "true: blocks that leave memory are kept in DATA_DIR/blocks and load again when a scan reaches "
           "them (the map stays the map of every scan); false: they are forgotten")

@@ -44,8 +44,11 @@ std::string ServiceStatistics::summaryLine() const {
                     durability.syncs, durability.sync_ms.p99_ms, durability.snapshots,
                     durability.failed ? "; FAILED: " + durability.last_error : std::string())
               : std::string("; journal off")) +
-         (window ? fmt::format("; window: {} blocks out of memory, {} left, {} came back, {} store failures",
-                               window->blocks_out, window->left, window->came_back, window->store_failures)
+         (window ? fmt::format(
+                       "; window: {} blocks out of memory, {} left, {} came back, {} loaded for queries, "
+                       "{} store failures",
+                       window->blocks_out, window->left, window->came_back, window->loaded_for_queries,
+                       window->store_failures)
                  : std::string());
 }
 

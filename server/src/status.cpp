@@ -26,7 +26,8 @@ std::string_view toString(Status s) {
 }
 
 std::string_view commandName(const Command& c) {
-  static constexpr std::string_view kNames[] = {"save", "load", "clear box", "reset", "snapshot"};
+  static constexpr std::string_view kNames[] = {"save",  "load",     "clear box",
+                                                "reset", "snapshot", "load stored blocks"};
   return kNames[c.index()];
 }
 

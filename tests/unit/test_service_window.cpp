@@ -175,6 +175,102 @@ TEST_F(ServiceWindow, BoxAndRayQueriesSayWhatIsStoredAndTheStatisticsCountIt) {
   EXPECT_NE(st.summaryLine().find("blocks out of memory"), std::string::npos);
 }
 
+/// How many of `points` lie in blocks out of memory (read from the map, not through a query, which would
+/// load them).
+std::size_t storedAmong(MapService& s, const std::vector<geometry::Vec3f>& points) {
+  return s.mapStore().read([&](const map::OccupancyMap& m, std::uint64_t) {
+    const auto& grid = static_cast<const map::GridMap&>(m);
+    std::size_t n = 0;
+    for (const auto& p : points) {
+      geometry::VoxelKey k;
+      if (m.converter().toKey(p, k) && !grid.inMemory(k)) ++n;
+    }
+    return n;
+  });
+}
+
+/// Submits scans [from, to) of robot r0 with map time t0 + i * 100 ms.
+void submitTimed(MapService& s, const std::vector<io::Scan>& scans, std::size_t from, std::size_t to,
+                 std::int64_t t0) {
+  Outcomes out;
+  for (std::size_t i = from; i < to; ++i) {
+    server::ScanJob j = jobOf(scans[i], "r0", i);
+    j.received_ns = t0 + static_cast<std::int64_t>(i) * 100'000'000;
+    EXPECT_TRUE(s.submit(std::move(j), out.callback()).accepted);
+  }
+  ASSERT_TRUE(out.waitFor(to - from));
+  EXPECT_EQ(out.count(ScanOutcome::kInMap), to - from) << out.lastWhy();
+}
+
+TEST_F(ServiceWindow, WithQueryLoadsAQueryBringsItsStoredBlocksBackForTheConfiguredTime) {
+  const std::int64_t t0 = 1'700'000'000'000'000'000;
+  ServiceOptions plain = o;
+  plain.window.radius_m = 0.0;  // the same map, all of it in memory
+  plain.data_dir = (tmp.path / "plain-data").string();
+  o.window.query_load_s = 30.0;
+  MapService s(o), all(plain);
+  submitTimed(s, scans, 0, forward, t0);
+  submitTimed(all, scans, 0, forward, t0);
+  const std::uint64_t out_before = s.windowStats()->blocks_out;
+  ASSERT_GT(out_before, 0u);
+  // A ray back toward the start crosses stored blocks: they load, and it answers as the whole map does.
+  const geometry::Vec3f here = scans[forward - 1].origin();
+  RayQuery back;
+  back.origin = here;
+  back.direction = (scans[0].origin() - here).normalized();
+  back.max_range = (scans[0].origin() - here).norm();
+  back.ignore_unknown = true;
+  const Answer ra = s.answer(back), rb = all.answer(back);
+  ASSERT_EQ(ra.status, Status::kOk) << ra.message;
+  const auto& r = std::get<RayAnswer>(ra.result);
+  EXPECT_FALSE(r.reached_not_in_memory) << ra.message;
+  EXPECT_EQ(r.hit, std::get<RayAnswer>(rb.result).hit) << ra.message << " / " << rb.message;
+  EXPECT_EQ(r.hit_point, std::get<RayAnswer>(rb.result).hit_point);
+  const std::uint64_t after_ray = s.windowStats()->loaded_for_queries;
+  EXPECT_GT(after_ray, 0u);
+  EXPECT_LT(s.windowStats()->blocks_out, out_before);
+  // Every cell of the offline map answers its value: none says "not in memory" any more.
+  const Tally t = compareFirst(s, forward);
+  EXPECT_EQ(t.wrong, 0u);
+  EXPECT_EQ(t.stored, 0u);
+  EXPECT_GT(t.same, 1000u);
+  EXPECT_EQ(s.windowStats()->blocks_out, 0u) << "every stored block holds a known cell";
+  EXPECT_GT(s.windowStats()->loaded_for_queries, after_ray);
+  // A box over everything then equals the whole map's.
+  BoxQuery box;
+  box.min = {-1000, -1000, -100};
+  box.max = {1000, 1000, 100};
+  box.limit = 1'000'000;
+  const auto ba = std::get<BoxAnswer>(s.answer(box).result), bb = std::get<BoxAnswer>(all.answer(box).result);
+  EXPECT_EQ(ba.blocks_not_in_memory, 0u);
+  EXPECT_EQ(ba.cells.size(), bb.cells.size());
+  // The next scans (map time within the 30 s) keep what the queries loaded, far as it is from the robot:
+  // the first scan's cells beyond the radius (plus half a block's diagonal) still answer.
+  std::vector<geometry::Vec3f> far_away;
+  for (const auto& p : scans[0].worldPoints())
+    if ((p - here).norm() > static_cast<float>(o.window.radius_m) + 3.0f) far_away.push_back(p);
+  ASSERT_GT(far_away.size(), 100u);
+  submitTimed(s, scans, forward, forward + 2, t0);
+  EXPECT_EQ(storedAmong(s, far_away), 0u);
+  // A scan 31 s of map time later: their time is over and they leave again.
+  Outcomes out;
+  server::ScanJob late = jobOf(scans[forward - 1], "r0", 1000);
+  late.received_ns = t0 + 31'000'000'000 + static_cast<std::int64_t>(forward) * 100'000'000;
+  ASSERT_TRUE(s.submit(std::move(late), out.callback()).accepted);
+  ASSERT_TRUE(out.waitFor(1));
+  EXPECT_EQ(storedAmong(s, far_away), far_away.size());
+}
+
+TEST_F(ServiceWindow, WithoutQueryLoadsAQueryLoadsNothing) {
+  MapService s(o);
+  submitAll(s, scans, 0, forward);
+  const auto before = *s.windowStats();
+  ASSERT_GT(before.blocks_out, 0u);
+  EXPECT_GT(compareFirst(s, forward).stored, 1000u);
+  EXPECT_EQ(s.windowStats()->blocks_out, before.blocks_out);
+  EXPECT_EQ(s.windowStats()->loaded_for_queries, 0u);
+}
+
 /// Blocks around a robot that sent one scan and then nothing: forgotten after the timeout, kept without it.
 std::size_t storedAroundAParkedRobot(ServiceOptions o, const std::vector<io::Scan>& scans, std::size_t n,
                                      std::uint64_t* forgotten) {

@@ -282,6 +282,8 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
     m.window().bytes_stored(s.window->bytes_stored);
     m.window().store_failures(s.window->store_failures);
     m.window().robots_forgotten(s.window->robots_forgotten);
+    m.window().blocks_loaded_for_queries(s.window->loaded_for_queries);
+    m.window().query_load_failures(s.window->query_load_failures);
   }
   return m;
 }

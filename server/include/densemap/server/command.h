@@ -6,7 +6,9 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include "densemap/server/query.h"
 
@@ -30,7 +32,14 @@ struct ResetCommand {};
 /// Write a snapshot of both layers to the data directory now (the journal behind it is then removed).
 struct SnapshotCommand {};
 
-using Command = std::variant<SaveCommand, LoadCommand, ClearBoxCommand, ResetCommand, SnapshotCommand>;
+/// Internal, never from the wire: bring the stored blocks of these key boxes back into memory for a query
+/// that reached them (--window-query-load-s); the map's content does not change, so it is not journaled.
+struct LoadStoredBlocksCommand {
+  std::vector<std::pair<geometry::VoxelKey, geometry::VoxelKey>> boxes;
+};
+
+using Command = std::variant<SaveCommand, LoadCommand, ClearBoxCommand, ResetCommand, SnapshotCommand,
+                             LoadStoredBlocksCommand>;
 
 std::string_view commandName(const Command& c);
 

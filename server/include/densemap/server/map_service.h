@@ -92,13 +92,19 @@ class MapService {
   durability::SnapshotContents snapshotOfLayers(std::uint64_t lsn, std::string progress) const;
   std::unique_ptr<durability::JournalStage> recoverInto(OccupancyStage& occupancy, DenseStage* dense);
   CommandResult runChange(std::shared_ptr<MapChange> change);
+  /// --window-query-load-s: most load-and-answer-again rounds per query (a ray may cross many stored blocks).
+  static constexpr int kQueryLoadRounds = 16;
+  std::atomic<std::uint64_t> query_loads_failed_{0};
   CommandResult save(const SaveCommand& c);
   CommandResult load(const LoadCommand& c);
 
  public:
   /// The map window's figures (null without one).
   std::optional<MapWindow::Stats> windowStats() const {
-    return window_ ? std::optional(window_->stats()) : std::nullopt;
+    if (!window_) return std::nullopt;
+    MapWindow::Stats s = window_->stats();
+    s.query_load_failures = query_loads_failed_.load();
+    return s;
   }
 
  private:

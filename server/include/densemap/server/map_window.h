@@ -8,12 +8,15 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "densemap/map/block_id_map.h"
@@ -30,6 +33,9 @@ struct MapWindowOptions {
   bool store = true;        ///< false: blocks that leave memory are forgotten
   /// A robot whose last scan is this much map time old no longer keeps blocks in memory (0: never).
   double robot_timeout_s = 300.0;
+  /// > 0: a query that reaches stored blocks brings them back, and they stay in memory this many seconds of
+  /// map time (the scans' receive time) before they may leave again; 0: the query says "not in memory".
+  double query_load_s = 0.0;
   /// False without a journal: no snapshot will name a file, so a block's file goes as soon as it comes back.
   bool snapshots = true;
   bool enabled() const { return radius_m > 0.0 || max_map_mb > 0.0; }
@@ -45,8 +51,14 @@ class MapWindow {
   /// blocks come back (inside publish).
   /// Throws durability::StorageError or util::FormatError (naming the file) when one cannot be read; then
   /// nothing changed, and the scan must not be applied (it would overwrite the stored cells).
-  void bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi, float reach_m,
-                 const Publisher& publish);
+  /// Returns how many blocks came back.
+  std::size_t bringBack(map::GridMap& m, const geometry::VoxelKey& lo, const geometry::VoxelKey& hi,
+                        float reach_m, const Publisher& publish);
+  /// For a query (options.query_load_s > 0): the stored blocks in these key boxes come back and are kept in
+  /// memory for query_load_s of map time. Same errors as bringBack. Returns how many came back.
+  std::size_t bringBackForQuery(map::GridMap& m,
+                                const std::vector<std::pair<geometry::VoxelKey, geometry::VoxelKey>>& boxes,
+                                const Publisher& publish);
   /// After a scan of `robot` from `origin` at map time `now_s` (the scan's receive time): robots silent
   /// past the timeout are forgotten, then blocks leave memory (removed inside publish, written after).
   void afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin, double now_s,
@@ -70,7 +82,10 @@ class MapWindow {
 
  private:
   void evict(map::GridMap& m, const std::vector<std::uint64_t>& ids, const Publisher& publish);
+  std::size_t bringBackIds(map::GridMap& m, const std::vector<std::uint64_t>& ids, const Publisher& publish);
   void collectPending();
+  /// Drops pins whose time is over (now_s: map time) and the ids still pinned from `ids`.
+  void unpin(double now_s, std::vector<std::uint64_t>& ids);
 
   MapWindowOptions options_;
   std::unique_ptr<durability::BlockStore> store_;
@@ -78,13 +93,16 @@ class MapWindow {
     geometry::Vec3f position;
     double last_s;  // map time of its latest scan; NaN when restored from a snapshot (not kept there)
   };
-  std::map<std::string, RobotPlace> robots_;  // latest sensor position per robot
-  map::BlockIdMap<std::uint64_t> index_;      // stored block -> version
+  std::map<std::string, RobotPlace> robots_;                       // latest sensor position per robot
+  double last_scan_s_ = std::numeric_limits<double>::quiet_NaN();  // map time of the latest scan
+  // Blocks a query brought back -> map time until which they stay (NaN: from the next scan on).
+  std::unordered_map<std::uint64_t, double> pinned_;
+  map::BlockIdMap<std::uint64_t> index_;  // stored block -> version
   std::uint64_t version_ = 0;
   std::mutex pending_mutex_;
   std::optional<std::string> pending_collect_;
   std::atomic<std::uint64_t> blocks_out_{0}, left_{0}, came_back_{0}, dropped_{0}, bytes_stored_{0},
-      store_failures_{0}, robots_forgotten_{0};
+      store_failures_{0}, robots_forgotten_{0}, loaded_for_queries_{0};
   util::LogThrottle throttle_;
   util::LogThrottle thrash_throttle_{std::chrono::seconds(60)};  // a lasting condition: once a minute
 };

@@ -65,6 +65,9 @@ struct RayAnswer {
   /// The ray stopped at a block stored out of memory (map window): nothing is known from there on, even
   /// with ignore_unknown (an obstacle may be stored there).
   bool reached_not_in_memory = false;
+  /// When reached_not_in_memory: the centre of the first cell stored out of memory (the service loads its
+  /// block from there with --window-query-load-s).
+  Vec3f not_in_memory_at = Vec3f::Zero();
 };
 /// A map's figures (StatsQuery, and what a save wrote).
 struct MapSummary {
