@@ -104,7 +104,8 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
             {"store_failures", s.window().store_failures()},
             {"robots_forgotten", s.window().robots_forgotten()},
             {"blocks_loaded_for_queries", s.window().blocks_loaded_for_queries()},
-            {"query_load_failures", s.window().query_load_failures()}}}};
+            {"query_load_failures", s.window().query_load_failures()},
+            {"dense_blocks_dropped", s.window().dense_blocks_dropped()}}}};
 }
 
 /// Fails with the reply's status and message when it is not OK.

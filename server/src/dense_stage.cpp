@@ -17,6 +17,13 @@ StageResult DenseStage::replay(ScanJob& job) {
   const auto& points = job.scan.frame == io::PointFrame::kWorld ? job.scan.points : converted;
   auto prepared = store_.writerView().prepare(points, job.scan.origin());
   store_.write([&](dense::KernelLayer& layer) { layer.commit(prepared); });
+  if (window_radius_m_ > 0.0) {
+    robots_.update(job.robot_id, job.scan.origin(), static_cast<double>(job.received_ns) * 1e-9);
+    // Found on the writer's own view without the lock; only the erasing holds up the readers.
+    const auto far = store_.writerView().blocksFartherThan(robots_.positions(), window_radius_m_);
+    if (!far.empty())
+      store_.write([&](dense::KernelLayer& layer) { blocks_dropped_ += layer.dropBlocks(far); });
+  }
   return {};
 }
 

@@ -55,7 +55,9 @@ MapService::MapService(ServiceOptions options)
   std::unique_ptr<DenseStage> dense;
   if (auto layer = dense::makeDenseLayer(options_.dense, options_.map.resolution)) {
     dense_store_ = std::make_unique<DenseStore>(std::move(layer));
-    dense = std::make_unique<DenseStage>(*dense_store_, options_.dense_nice, options_.dense_overflow);
+    dense = std::make_unique<DenseStage>(*dense_store_, options_.dense_nice, options_.dense_overflow,
+                                         options_.window.radius_m, options_.window.robot_timeout_s);
+    dense_stage_ = dense.get();  // owned by the pipeline from here on, as long as this service
   }
   if (options_.durability.journal) {
     auto journal = recoverInto(*occupancy, dense.get());
@@ -413,6 +415,14 @@ CommandResult MapService::execute(const Command& command, const std::string& req
     spdlog::warn("{} by {} refused ({}): {}", commandName(command), who, toString(r.status), r.message);
   }
   return r;
+}
+
+std::optional<MapWindow::Stats> MapService::windowStats() const {
+  if (!window_) return std::nullopt;
+  MapWindow::Stats s = window_->stats();
+  s.query_load_failures = query_loads_failed_.load();
+  if (dense_stage_ != nullptr) s.dense_blocks_dropped = dense_stage_->blocksDropped();
+  return s;
 }
 
 ServiceStatistics MapService::statistics() const {

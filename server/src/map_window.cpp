@@ -95,29 +95,16 @@ std::size_t MapWindow::bringBackIds(map::GridMap& m, const std::vector<std::uint
 void MapWindow::afterScan(map::GridMap& m, const std::string& robot, const geometry::Vec3f& origin,
                           double now_s, const Publisher& publish) {
   collectPending();
-  robots_[robot] = {origin, now_s};
   last_scan_s_ = now_s;
-  // A robot that stopped sending would otherwise hold its neighbourhood in memory forever.
-  for (auto it = robots_.begin(); it != robots_.end();) {
-    if (std::isnan(it->second.last_s)) it->second.last_s = now_s;  // restored: its clock starts now
-    if (options_.robot_timeout_s > 0.0 && now_s - it->second.last_s > options_.robot_timeout_s) {
-      spdlog::info(
-          "map window: robot '{}' sent nothing for {:.0f} s (--window-robot-timeout-s); its blocks "
-          "may leave memory",
-          it->first, now_s - it->second.last_s);
-      it = robots_.erase(it);
-      ++robots_forgotten_;
-    } else {
-      ++it;
-    }
+  for (const auto& [id, silent_s] : robots_.update(robot, origin, now_s)) {
+    spdlog::info(
+        "map window: robot '{}' sent nothing for {:.0f} s (--window-robot-timeout-s); its blocks may leave "
+        "memory",
+        id, silent_s);
+    ++robots_forgotten_;
   }
   std::vector<std::uint64_t> ids;
-  if (options_.radius_m > 0.0) {
-    std::vector<geometry::Vec3f> centres;
-    centres.reserve(robots_.size());
-    for (const auto& [id, p] : robots_) centres.push_back(p.position);
-    ids = m.blocksFartherThan(centres, options_.radius_m);
-  }
+  if (options_.radius_m > 0.0) ids = m.blocksFartherThan(robots_.positions(), options_.radius_m);
   unpin(now_s, ids);
   if (!ids.empty()) evict(m, ids, publish);
   if (options_.max_map_mb > 0.0) {
@@ -192,12 +179,12 @@ std::string MapWindow::snapshotState() {
   util::ByteWriter w(out);
   w.put(kStateMagic);
   w.put(version_);
-  w.put(static_cast<std::uint64_t>(robots_.size()));
-  for (const auto& [id, p] : robots_) {
+  w.put(static_cast<std::uint64_t>(robots_.byRobot().size()));
+  for (const auto& [id, p] : robots_.byRobot()) {
     w.string(id);
-    w.put(p.position.x());
-    w.put(p.position.y());
-    w.put(p.position.z());
+    w.put(p.x());
+    w.put(p.y());
+    w.put(p.z());
   }
   w.put(static_cast<std::uint64_t>(index_.size()));
   index_.forEach([&](std::uint64_t id, std::uint64_t version) {
@@ -243,7 +230,7 @@ void MapWindow::restoreState(std::string_view state, map::GridMap& m) {
   DecodedState s = decodeState(state);
   version_ = s.version;
   robots_.clear();
-  for (auto& [id, p] : s.robots) robots_[id] = {p, std::numeric_limits<double>::quiet_NaN()};
+  for (auto& [id, p] : s.robots) robots_.restore(id, p);
   index_ = std::move(s.index);
   if (!options_.store && !index_.empty())
     throw std::runtime_error(

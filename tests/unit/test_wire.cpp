@@ -194,7 +194,7 @@ TEST(Wire, StatisticsConvert) {
   EXPECT_EQ(m.commands_failed(), 2u);
   EXPECT_EQ(m.map_stats().map_version(), 4u);
   EXPECT_FALSE(m.window().enabled()) << "no window";
-  s.window = MapWindowStats{3, 10, 7, 0, 4096, 1, 2, 5, 6};
+  s.window = MapWindowStats{3, 10, 7, 0, 4096, 1, 2, 5, 6, 9};
   const msg::ServerStatistics w = toWire(s);
   EXPECT_TRUE(w.window().enabled());
   EXPECT_EQ(w.window().blocks_out_of_memory(), 3u);
@@ -205,6 +205,7 @@ TEST(Wire, StatisticsConvert) {
   EXPECT_EQ(w.window().robots_forgotten(), 2u);
   EXPECT_EQ(w.window().blocks_loaded_for_queries(), 5u);
   EXPECT_EQ(w.window().query_load_failures(), 6u);
+  EXPECT_EQ(w.window().dense_blocks_dropped(), 9u);
 }
 
 TEST(Wire, AnotherServersStartIsReadOnlyFromPlausibleStatistics) {

@@ -1,5 +1,7 @@
 #include "densemap/dense/kernel_layer.h"
 
+#include "densemap/geometry/block_distance.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -167,6 +169,22 @@ std::optional<float> KernelLayer::probability(const Vec3f& p) const {
   if (a + b < options_.unknown_evidence) return std::nullopt;
   const float alpha = a + options_.prior_alpha, beta = b + options_.prior_beta;
   return alpha / (alpha + beta);  // Eq. 3.4
+}
+
+std::vector<std::uint64_t> KernelLayer::blocksFartherThan(std::span<const Vec3f> centres,
+                                                          double radius) const {
+  std::vector<std::uint64_t> ids;
+  for (const auto& [id, b] : blocks_) {
+    const Vec3f c = converter_.toCoord(geometry::blockCentreKey(geometry::VoxelKey::fromPacked(id), kShift));
+    if (geometry::fartherThanAll(c, centres, radius)) ids.push_back(id);
+  }
+  return ids;
+}
+
+std::size_t KernelLayer::dropBlocks(const std::vector<std::uint64_t>& ids) {
+  std::size_t n = 0;
+  for (std::uint64_t id : ids) n += blocks_.erase(id);
+  return n;
 }
 
 std::size_t KernelLayer::memoryBytes() const { return blocks_.size() * (sizeof(Block) + 32); }

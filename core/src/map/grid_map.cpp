@@ -1,5 +1,7 @@
 #include "densemap/map/grid_map.h"
 
+#include "densemap/geometry/block_distance.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -237,16 +239,10 @@ std::vector<std::uint64_t> GridMap::outOfMemoryIn(const VoxelKey& lo, const Voxe
 std::vector<std::uint64_t> GridMap::blocksFartherThan(std::span<const geometry::Vec3f> centres,
                                                       double radius) const {
   std::vector<std::uint64_t> ids;
-  const double r2 = radius * radius;
   for (const auto& [id, b] : blocks_) {
-    const VoxelKey bk = VoxelKey::fromPacked(id);
-    const VoxelKey mid{{static_cast<geometry::KeyCoord>((bk[0] << kBlockShift) + kBlockSide / 2),
-                        static_cast<geometry::KeyCoord>((bk[1] << kBlockShift) + kBlockSide / 2),
-                        static_cast<geometry::KeyCoord>((bk[2] << kBlockShift) + kBlockSide / 2)}};
-    const geometry::Vec3f c = converter_.toCoord(mid);
-    bool far = true;
-    for (const geometry::Vec3f& p : centres) far &= static_cast<double>((c - p).squaredNorm()) > r2;
-    if (far) ids.push_back(id);
+    const geometry::Vec3f c =
+        converter_.toCoord(geometry::blockCentreKey(VoxelKey::fromPacked(id), kBlockShift));
+    if (geometry::fartherThanAll(c, centres, radius)) ids.push_back(id);
   }
   return ids;
 }

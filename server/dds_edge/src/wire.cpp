@@ -284,6 +284,7 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
     m.window().robots_forgotten(s.window->robots_forgotten);
     m.window().blocks_loaded_for_queries(s.window->loaded_for_queries);
     m.window().query_load_failures(s.window->query_load_failures);
+    m.window().dense_blocks_dropped(s.window->dense_blocks_dropped);
   }
   return m;
 }

@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -109,6 +110,11 @@ class KernelLayer {
   std::array<float, 2> evidence(const geometry::VoxelKey& key) const;
 
   std::size_t blockCount() const { return blocks_.size(); }
+  /// The blocks whose centre is farther than `radius` from every one of `centres` (a rolling window over
+  /// the layer; the service drops them, issue 22).
+  std::vector<std::uint64_t> blocksFartherThan(std::span<const Vec3f> centres, double radius) const;
+  /// Forgets these blocks (their cells go back to the prior). Returns how many there were.
+  std::size_t dropBlocks(const std::vector<std::uint64_t>& ids);
   std::size_t memoryBytes() const;
   const KernelLayerOptions& options() const { return options_; }
   const geometry::KeyConverter& converter() const { return converter_; }

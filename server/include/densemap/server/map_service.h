@@ -100,18 +100,15 @@ class MapService {
 
  public:
   /// The map window's figures (null without one).
-  std::optional<MapWindow::Stats> windowStats() const {
-    if (!window_) return std::nullopt;
-    MapWindow::Stats s = window_->stats();
-    s.query_load_failures = query_loads_failed_.load();
-    return s;
-  }
+  std::optional<MapWindow::Stats> windowStats() const;
 
  private:
   ServiceOptions options_;
   std::chrono::steady_clock::time_point started_;
   std::unique_ptr<MapStore> store_;
-  std::unique_ptr<MapWindow> window_;  // before the pipeline, whose occupancy stage uses it
+  std::unique_ptr<MapWindow> window_;
+  const DenseStage* dense_stage_ = nullptr;  // the pipeline's, when there is a dense layer  // before the
+                                             // pipeline, whose occupancy stage uses it
   std::unique_ptr<DenseStore> dense_store_;
   std::unique_ptr<MapDirectory> map_dir_;
   std::unique_ptr<QueryAnswerer> answerer_;

@@ -23,6 +23,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/server/durability/block_store.h"
 #include "densemap/server/map_window_stats.h"
+#include "densemap/server/robot_places.h"
 #include "densemap/util/log_throttle.h"
 
 namespace densemap::server {
@@ -89,11 +90,7 @@ class MapWindow {
 
   MapWindowOptions options_;
   std::unique_ptr<durability::BlockStore> store_;
-  struct RobotPlace {
-    geometry::Vec3f position;
-    double last_s;  // map time of its latest scan; NaN when restored from a snapshot (not kept there)
-  };
-  std::map<std::string, RobotPlace> robots_;                       // latest sensor position per robot
+  RobotPlaces robots_{options_.robot_timeout_s};                   // latest sensor position per robot
   double last_scan_s_ = std::numeric_limits<double>::quiet_NaN();  // map time of the latest scan
   // Blocks a query brought back -> map time until which they stay (NaN: from the next scan on).
   std::unordered_map<std::uint64_t, double> pinned_;

@@ -14,7 +14,8 @@ struct MapWindowStats {
   std::uint64_t store_failures = 0;      ///< blocks kept in memory because the store could not take them
   std::uint64_t robots_forgotten = 0;    ///< robots silent past --window-robot-timeout-s this run
   std::uint64_t loaded_for_queries = 0;  ///< blocks brought back for a query this run (--window-query-load-s)
-  std::uint64_t query_load_failures = 0;  ///< queries whose stored blocks could not be loaded this run
+  std::uint64_t query_load_failures = 0;   ///< queries whose stored blocks could not be loaded this run
+  std::uint64_t dense_blocks_dropped = 0;  ///< dense layer blocks beyond the radius dropped this run
 };
 
 }  // namespace densemap::server
