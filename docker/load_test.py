@@ -42,20 +42,27 @@ def find_binary(name, build_dir):
     sys.exit(f"load_test: {name} not found under {build_dir}; build first (./tools/build.sh)")
 
 
+def processes(name):
+    """(pid, argv) of every process whose command is `name` (with pid: host, every one of the machine)."""
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/comm") as f:
+                if f.read().strip() != name[:15]:
+                    continue
+            with open(f"/proc/{entry}/cmdline") as f:
+                yield int(entry), f.read().rstrip("\0").split("\0")
+        except OSError:
+            continue
+
+
 def find_pid(name, match=None):
     """The pid of the first process whose command is `name` and, if given, whose command line contains
     `match` (the server, in attach mode: with pid: host the runner sees every process of the machine)."""
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/comm") as f:
-                    if f.read().strip() != name[:15]:
-                        continue
-                with open(f"/proc/{entry}/cmdline") as f:
-                    if match is None or match in f.read().replace("\0", " "):
-                        return int(entry)
-            except OSError:
-                continue
+    for pid, args in processes(name):
+        if match is None or match in " ".join(args):
+            return pid
     return None
 
 
@@ -221,23 +228,9 @@ def summaries(directory):
 
 
 def client_pids(domain):
-    """The densemap-replay processes on `domain` this runner can see (pid: host: every one of the machine)."""
-    pids = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/comm") as f:
-                if f.read().strip() != "densemap-replay":
-                    continue
-            with open(f"/proc/{entry}/cmdline") as f:
-                args = f.read().split("\0")
-        except OSError:
-            continue
-        if "--domain" in args and args.index("--domain") + 1 < len(args) and \
-                args[args.index("--domain") + 1] == str(domain):
-            pids.append(int(entry))
-    return pids
+    """The densemap-replay processes on `domain` this runner can see."""
+    return [pid for pid, args in processes("densemap-replay")
+            if "--domain" in args[:-1] and args[args.index("--domain") + 1] == str(domain)]
 
 
 def run_attached(a):
