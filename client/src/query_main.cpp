@@ -84,6 +84,8 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
           {"commands_done", s.commands_done()},
           {"commands_failed", s.commands_failed()},
           {"resident_mb", static_cast<double>(s.resident_bytes()) / 1e6},
+          {"heap_in_use_mb", static_cast<double>(s.heap_in_use_bytes()) / 1e6},
+          {"heap_free_mb", static_cast<double>(s.heap_free_bytes()) / 1e6},
           {"samples_undecodable", s.samples_undecodable()},
           {"participants_refused", s.participants_refused()},
           {"journal",
@@ -245,10 +247,12 @@ int main(int argc, char** argv) {
       } else {
         std::printf(
             "server %s, up %.0f s: %llu queries answered (%llu failed), publish-to-map p50 %.1f ms, "
-            "p99 %.1f ms, resident %.0f MB\n",
+            "p99 %.1f ms, resident %.0f MB (heap: %.0f MB in use, %.0f MB freed and kept)\n",
             s->server_id().c_str(), s->uptime_s(), static_cast<unsigned long long>(s->queries_answered()),
             static_cast<unsigned long long>(s->queries_failed()), s->publish_to_map_p50_ms(),
-            s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6);
+            s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6,
+            static_cast<double>(s->heap_in_use_bytes()) / 1e6,
+            static_cast<double>(s->heap_free_bytes()) / 1e6);
         if (s->window().enabled()) {
           const auto& w = s->window();
           std::printf(

@@ -16,6 +16,7 @@
 #include "densemap/server/scan_validator.h"
 #include "densemap/server/service_option_table.h"
 #include "densemap/server/update_priority.h"
+#include "densemap/util/heap_usage.h"
 #include "densemap/util/wall_clock.h"
 
 namespace densemap::server {
@@ -491,6 +492,9 @@ ServiceStatistics MapService::statistics() const {
   s.commands_done = commands_done_;
   s.commands_failed = commands_failed_;
   s.resident_bytes = residentBytes();
+  const util::HeapUsage heap = util::heapUsage();
+  s.heap_in_use_bytes = heap.in_use_bytes;
+  s.heap_free_bytes = heap.free_bytes;
   return s;
 }
 

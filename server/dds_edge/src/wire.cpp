@@ -265,6 +265,8 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
   m.commands_done(s.commands_done);
   m.commands_failed(s.commands_failed);
   m.resident_bytes(s.resident_bytes);
+  m.heap_in_use_bytes(s.heap_in_use_bytes);
+  m.heap_free_bytes(s.heap_free_bytes);
   m.samples_undecodable(msg::undecodableSamples());
   m.journal(s.durability.enabled);
   m.journal_failed(s.durability.failed);

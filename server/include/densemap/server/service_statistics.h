@@ -49,6 +49,8 @@ struct ServiceStatistics {
   std::uint64_t commands_done = 0;
   std::uint64_t commands_failed = 0;
   std::uint64_t resident_bytes = 0;
+  std::uint64_t heap_in_use_bytes = 0;  ///< live in the allocator (util::heapUsage)
+  std::uint64_t heap_free_bytes = 0;    ///< freed and kept for reuse; resident minus in-use, roughly
   DurabilityStatistics durability;
   std::optional<MapWindowStats> window;  ///< with --window-radius or --max-map-mb
 
