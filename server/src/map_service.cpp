@@ -230,6 +230,8 @@ CommandResult MapService::snapshot() {
   s.dense = std::move(change->dense_state);
   s.window = std::move(change->window_state);
   try {
+    if (window_)
+      window_->syncStored(std::move(change->window_files_to_sync));  // before a snapshot names them
     last_snapshot_bytes_ = data_dir_->writeSnapshot(s);
     if (window_) window_->snapshotWritten(s.window);
   } catch (const std::exception& e) {

@@ -173,10 +173,18 @@ void MapWindow::forgetAll() {
   blocks_out_ = 0;
 }
 
-std::string MapWindow::snapshotState() {
-  if (store_) store_->sync();
-  std::string out;
-  util::ByteWriter w(out);
+MapWindow::SnapshotPart MapWindow::snapshotPart() {
+  // The previous snapshot's collect first: it keeps only what that snapshot or the live index names, so
+  // done after this state is taken it could remove a file this state names (a block back since).
+  collectPending();
+  SnapshotPart part;
+  if (store_) {
+    part.files_to_sync = store_->takeUnsynced();
+    std::lock_guard lock(pending_mutex_);
+    part.files_to_sync.insert(part.files_to_sync.end(), resync_.begin(), resync_.end());
+    resync_.clear();
+  }
+  util::ByteWriter w(part.state);
   w.put(kStateMagic);
   w.put(version_);
   w.put(static_cast<std::uint64_t>(robots_.byRobot().size()));
@@ -191,7 +199,24 @@ std::string MapWindow::snapshotState() {
     w.put(id);
     w.put(version);
   });
-  return out;
+  return part;
+}
+
+void MapWindow::syncStored(std::vector<std::string> files) {
+  if (!store_) return;
+  try {
+    store_->syncFiles(files);
+  } catch (const durability::StorageError&) {
+    std::lock_guard lock(pending_mutex_);
+    resync_.insert(resync_.end(), files.begin(), files.end());
+    throw;
+  }
+}
+
+std::string MapWindow::snapshotState() {
+  SnapshotPart part = snapshotPart();
+  syncStored(std::move(part.files_to_sync));
+  return std::move(part.state);
 }
 
 namespace {

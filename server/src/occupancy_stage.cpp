@@ -118,8 +118,11 @@ void OccupancyStage::applyChange(MapChange& change) {
       // only the update waits for the copy (measured: snapshot_ms).
       const auto t0 = std::chrono::steady_clock::now();
       change.snapshot = store_.writerView().clone();
-      if (window_ && std::holds_alternative<SnapshotCommand>(change.command))
-        change.window_state = window_->snapshotState();
+      if (window_ && std::holds_alternative<SnapshotCommand>(change.command)) {
+        MapWindow::SnapshotPart part = window_->snapshotPart();
+        change.window_state = std::move(part.state);
+        change.window_files_to_sync = std::move(part.files_to_sync);
+      }
       change.snapshot_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }

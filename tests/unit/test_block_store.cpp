@@ -5,6 +5,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "densemap/server/durability/block_store.h"
 #include "densemap/server/durability/journal_segment.h"
@@ -70,6 +73,41 @@ TEST(BlockStore, MissingLinkedOrHugeFilesAreRefusedWithTheirName) {
     EXPECT_NE(std::string(e.what()).find("more than a block can have"), std::string::npos) << e.what();
   }
   EXPECT_THROW(du::BlockStore(tmp.path / "secret" / "blocks"), du::StorageError) << "under a file";
+}
+
+TEST(BlockStore, FilesHandedOverAreSyncedOnAnotherThreadWhilePutsGoOn) {
+  // The map window's snapshots: the writer thread takes the names, the snapshot's thread syncs them.
+  TempDir tmp;
+  du::BlockStore store(tmp.path / "blocks");
+  for (std::uint64_t id = 1; id <= 200; ++id) store.put(id, id, std::string(100, 'a'));
+  std::vector<std::string> handed = store.takeUnsynced();
+  ASSERT_EQ(handed.size(), 200u);
+  EXPECT_TRUE(store.takeUnsynced().empty()) << "taken once";
+  store.collect([](std::uint64_t id, std::uint64_t) { return id != 7; });  // one collected before its sync
+  std::thread syncer([&] { store.syncFiles(handed); });
+  for (std::uint64_t id = 201; id <= 400; ++id) store.put(id, id, std::string(100, 'b'));
+  syncer.join();
+  EXPECT_TRUE(handed.empty()) << "a collected file is skipped, every other one synced";
+  EXPECT_EQ(store.takeUnsynced().size(), 200u) << "the puts during the sync wait for the next one";
+  EXPECT_EQ(store.get(200, 200), std::string(100, 'a'));
+}
+
+TEST(BlockStore, AFailedSyncKeepsTheNamesItDidNotSync) {
+  TempDir tmp;
+  du::BlockStore store(tmp.path / "blocks");
+  store.put(1, 1, "one");
+  store.put(3, 1, "three");
+  std::ofstream(tmp.path / "secret") << "x";
+  fs::create_symlink(tmp.path / "secret", tmp.path / "blocks" / du::blockFileName(2, 1));
+  std::vector<std::string> names = {du::blockFileName(1, 1), du::blockFileName(2, 1),
+                                    du::blockFileName(3, 1)};
+  try {
+    store.syncFiles(names);
+    FAIL() << "a symbolic link was synced";
+  } catch (const du::StorageError& e) {
+    EXPECT_NE(std::string(e.what()).find(du::blockFileName(2, 1)), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{du::blockFileName(2, 1), du::blockFileName(3, 1)}));
 }
 
 }  // namespace

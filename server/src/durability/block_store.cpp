@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -103,20 +104,31 @@ void BlockStore::remove(std::uint64_t id, std::uint64_t version) {
   }
 }
 
-void BlockStore::sync() {
-  for (const std::string& name : unsynced_) {
-    const fs::path path = dir_ / name;
+std::vector<std::string> BlockStore::takeUnsynced() { return std::exchange(unsynced_, {}); }
+
+void BlockStore::syncFiles(std::vector<std::string>& names) const {
+  std::size_t done = 0;
+  const auto keep_rest = [&] {
+    names.erase(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(done));
+  };
+  for (; done < names.size(); ++done) {
+    const fs::path path = dir_ / names[done];
     const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0) {
       if (errno == ENOENT) continue;  // collected meanwhile
-      throw StorageError(fmt::format("cannot sync {}: {}", path.string(), errnoText()));
+      const std::string why = errnoText();
+      keep_rest();
+      throw StorageError(fmt::format("cannot sync {}: {}", path.string(), why));
     }
     const bool ok = ::fsync(fd) == 0;
     const std::string why = ok ? "" : errnoText();
     ::close(fd);
-    if (!ok) throw StorageError(fmt::format("cannot sync {}: {}", path.string(), why));
+    if (!ok) {
+      keep_rest();
+      throw StorageError(fmt::format("cannot sync {}: {}", path.string(), why));
+    }
   }
-  unsynced_.clear();
+  names.clear();
   const int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd < 0 || ::fsync(dfd) != 0) {
     const std::string why = errnoText();

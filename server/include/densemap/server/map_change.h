@@ -6,6 +6,7 @@
 #include <future>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "densemap/map/occupancy_map.h"
 #include "densemap/server/command.h"
@@ -30,7 +31,8 @@ struct MapChange {
   std::string dense_state;
   /// SnapshotCommand with a map window: its state (MapWindow::snapshotState) at the snapshot's point.
   std::string window_state;
-  double snapshot_ms = 0.0;  ///< how long taking the snapshot held up the map update
+  std::vector<std::string> window_files_to_sync;  ///< synced by the snapshot's thread, not the writer
+  double snapshot_ms = 0.0;                       ///< how long taking the snapshot held up the map update
   CommandResult result;
   std::promise<void> done;  ///< set when the last stage has applied it (or the pipeline gave it up)
 };

@@ -67,8 +67,19 @@ class MapWindow {
   /// A reset or a loaded map: no block is stored any more (the files go at the next snapshot's collect).
   void forgetAll();
 
+  /// The window's part of a snapshot: its state, and the block files it names that are not durable yet.
+  struct SnapshotPart {
+    std::string state;
+    std::vector<std::string> files_to_sync;
+  };
   /// For a snapshot (writer thread): the version counter, the robots' positions and the index of stored
-  /// blocks, after making every stored file durable.
+  /// blocks. The files go to syncStored on the snapshot's own thread, so the writer does not wait for
+  /// thousands of fsyncs (one per block that left memory since the last snapshot).
+  SnapshotPart snapshotPart();
+  /// Makes the files of a SnapshotPart durable; call before the snapshot that holds its state is written.
+  /// Any thread. Throws durability::StorageError; the files not synced then go to the next snapshot.
+  void syncStored(std::vector<std::string> files);
+  /// snapshotPart with its files synced here (start-up and exit, when no other thread runs).
   std::string snapshotState();
   /// After a restart: the state of the snapshot; marks its stored blocks out of memory in `m`.
   /// Throws util::FormatError naming what is wrong.
@@ -98,6 +109,7 @@ class MapWindow {
   std::uint64_t version_ = 0;
   std::mutex pending_mutex_;
   std::optional<std::string> pending_collect_;
+  std::vector<std::string> resync_;  // files a failed syncStored left for the next snapshot
   std::atomic<std::uint64_t> blocks_out_{0}, left_{0}, came_back_{0}, dropped_{0}, bytes_stored_{0},
       store_failures_{0}, robots_forgotten_{0}, loaded_for_queries_{0};
   util::LogThrottle throttle_;

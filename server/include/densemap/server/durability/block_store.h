@@ -36,7 +36,13 @@ class BlockStore {
   /// Removes one block file now (no snapshot can name it: the service runs without a journal).
   void remove(std::uint64_t id, std::uint64_t version);
   /// fsync of every file put since the last sync, then of the directory. Throws StorageError.
-  void sync();
+  void sync() { syncFiles(unsynced_); }
+  /// The names of the files put since the last call (or sync), handed to syncFiles on another thread.
+  std::vector<std::string> takeUnsynced();
+  /// fsync of the named files (a file collected meanwhile is skipped), then of the directory. Safe beside
+  /// put() and collect() on another thread: it reads only the directory's name. Synced names leave `names`
+  /// as it goes, so after a StorageError it holds the ones still to sync.
+  void syncFiles(std::vector<std::string>& names) const;
   /// Removes every block file whose (id, version) `keep` refuses, and leftover temporary files; returns
   /// how many files went. Names that are neither are left alone.
   std::size_t collect(const std::function<bool(std::uint64_t id, std::uint64_t version)>& keep);
