@@ -247,7 +247,7 @@ int main(int argc, char** argv) {
       } else {
         std::printf(
             "server %s, up %.0f s: %llu queries answered (%llu failed), publish-to-map p50 %.1f ms, "
-            "p99 %.1f ms, resident %.0f MB (heap: %.0f MB in use, %.0f MB freed and kept)\n",
+            "p99 %.1f ms, resident %.0f MB (heap: %.0f MB in use, %.0f MB free in the allocator)\n",
             s->server_id().c_str(), s->uptime_s(), static_cast<unsigned long long>(s->queries_answered()),
             static_cast<unsigned long long>(s->queries_failed()), s->publish_to_map_p50_ms(),
             s->publish_to_map_p99_ms(), static_cast<double>(s->resident_bytes()) / 1e6,

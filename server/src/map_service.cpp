@@ -17,6 +17,7 @@
 #include "densemap/server/service_option_table.h"
 #include "densemap/server/update_priority.h"
 #include "densemap/util/heap_usage.h"
+#include "densemap/util/retain_freed_memory.h"
 #include "densemap/util/wall_clock.h"
 
 namespace densemap::server {
@@ -249,6 +250,13 @@ CommandResult MapService::snapshot() {
       change->snapshot->knownCells(), static_cast<double>(last_snapshot_bytes_) / 1e6, ms,
       change->snapshot_ms);
   spdlog::info("{}", r.message);
+  if (options_.durability.snapshot_returns_memory) {
+    // Freed now, or kept resident as the heap's high-water mark (util/retain_freed_memory.h keeps it for
+    // the scans' reuse; a snapshot's buffers are far larger than a scan's).
+    change.reset();
+    s = {};
+    util::returnFreedMemory();
+  }
   return r;
 }
 

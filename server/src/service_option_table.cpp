@@ -136,6 +136,9 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
     t.add("snapshot-every-s", d.snapshot_every_s, "or this many seconds after the last one (0: not by time)")
         .range(0.0, 1e7);
     t.add("snapshot-on-exit", d.snapshot_on_exit, "snapshot on shutdown (a restart then replays nothing)");
+    t.add("snapshot-returns-memory", d.snapshot_returns_memory,
+          "after each snapshot give the heap it freed back to the kernel (lower resident memory; the next "
+          "snapshot's copy and scans fault their pages in again)");
   }
   {
     cli::OptionTable& t = tables.emplace_back("Shutdown (SIGINT / SIGTERM)");

@@ -32,8 +32,8 @@ std::string ServiceStatistics::summaryLine() const {
   }
   return fmt::format(
              "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms "
-             "p99 {:.1f} ms; map {:.1f} MB; resident {:.0f} MB (heap {:.0f} MB in use, {:.0f} MB freed and "
-             "kept); {} queries{}",
+             "p99 {:.1f} ms; map {:.1f} MB; resident {:.0f} MB (heap {:.0f} MB in use, {:.0f} MB free in the "
+             "allocator); {} queries{}",
              robots.size(), t.received, t.processed, t.dropped, t.rejected, publish_to_map.p50_ms,
              publish_to_map.p99_ms, static_cast<double>(memory_bytes) / 1e6,
              static_cast<double>(resident_bytes) / 1e6, static_cast<double>(heap_in_use_bytes) / 1e6,

@@ -50,7 +50,7 @@ struct ServiceStatistics {
   std::uint64_t commands_failed = 0;
   std::uint64_t resident_bytes = 0;
   std::uint64_t heap_in_use_bytes = 0;  ///< live in the allocator (util::heapUsage)
-  std::uint64_t heap_free_bytes = 0;    ///< freed and kept for reuse; resident minus in-use, roughly
+  std::uint64_t heap_free_bytes = 0;    ///< freed, held by the allocator (util::HeapUsage)
   DurabilityStatistics durability;
   std::optional<MapWindowStats> window;  ///< with --window-radius or --max-map-mb
 

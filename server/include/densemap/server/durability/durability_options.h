@@ -27,6 +27,10 @@ struct DurabilityOptions {
   /// ... or this many seconds after the last one with anything new (0: not by time), and on shutdown.
   double snapshot_every_s = 300.0;
   bool snapshot_on_exit = true;
+  /// After each snapshot, give the freed heap back to the kernel (malloc_trim): the copy, its encoding and
+  /// the dense state are tens to hundreds of MB that would otherwise stay resident as the heap's high-water
+  /// mark. Costs page faults in the next copy and scans (docs/BENCHMARKS.md measures both).
+  bool snapshot_returns_memory = true;
   /// Damage in the middle of the journal: refuse to start (default), or "cut" it there (keeps the valid
   /// prefix, moves the rest aside as *.damaged, and loses the records after the damage).
   std::string journal_recover = "refuse";
