@@ -107,24 +107,15 @@ void BlockStore::remove(std::uint64_t id, std::uint64_t version) {
 std::vector<std::string> BlockStore::takeUnsynced() { return std::exchange(unsynced_, {}); }
 
 void BlockStore::syncFiles(std::vector<std::string>& names) const {
-  std::size_t done = 0;
-  const auto keep_rest = [&] {
-    names.erase(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(done));
-  };
-  for (; done < names.size(); ++done) {
+  for (std::size_t done = 0; done < names.size(); ++done) {
     const fs::path path = dir_ / names[done];
     const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-    if (fd < 0) {
-      if (errno == ENOENT) continue;  // collected meanwhile
-      const std::string why = errnoText();
-      keep_rest();
-      throw StorageError(fmt::format("cannot sync {}: {}", path.string(), why));
-    }
-    const bool ok = ::fsync(fd) == 0;
+    if (fd < 0 && errno == ENOENT) continue;  // collected meanwhile
+    const bool ok = fd >= 0 && ::fsync(fd) == 0;
     const std::string why = ok ? "" : errnoText();
-    ::close(fd);
+    if (fd >= 0) ::close(fd);
     if (!ok) {
-      keep_rest();
+      names.erase(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(done));  // the rest stay
       throw StorageError(fmt::format("cannot sync {}: {}", path.string(), why));
     }
   }
