@@ -78,6 +78,22 @@ def proc_sample(pid, clock_ticks):
     return (int(fields[11]) + int(fields[12])) / clock_ticks, rss  # utime + stime
 
 
+def resident_parts(pid):
+    """What the resident memory is made of, in MB, from /proc/PID/status: anonymous (heap, stacks, arenas),
+    file-backed (the program and its libraries) and shared memory (Fast DDS's shared-memory transport
+    segments, resident once touched). Empty once the process has gone."""
+    parts = {}
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key in ("RssAnon", "RssFile", "RssShmem"):
+                    parts[key[3:].lower() + "_mb"] = round(int(value.split()[0]) / 1e3, 1)  # kB
+    except OSError:
+        return {}
+    return parts
+
+
 def thread_cpu(pid, clock_ticks):
     """CPU seconds so far per thread name of a process (threads we start are named dm-<role>; OpenMP
     workers inherit their creator's name; unnamed library threads carry the program's name)."""
@@ -148,7 +164,7 @@ class Sampler:
         now = time.time() - self.t0
         if self.last is not None and now > self.last[0]:
             self.samples.append({"t": round(now, 1), "cpu_cores": round((s[0] - self.last[1]) / (now - self.last[0]), 2),
-                                 "rss_mb": round(s[1] / 1e6, 1)})
+                                 "rss_mb": round(s[1] / 1e6, 1), **resident_parts(self.pid)})
         self.last = (now, s[0])
         self.threads_end = thread_cpu(self.pid, self.ticks) or self.threads_end
         self.machine_end = machine_busy()
@@ -381,6 +397,10 @@ def main():
         step = max(1, len(samples) // 10)
         print("server over time: " + "  ".join(f"{s['t']:.0f}s {s['cpu_cores']:.2f}c {s['rss_mb']:.0f}MB"
                                                for s in samples[::step]))
+        if "anon_mb" in samples[0]:
+            print("resident parts over time (anonymous / file / shared memory MB): " + "  ".join(
+                f"{s['t']:.0f}s {s.get('anon_mb', 0):.0f}/{s.get('file_mb', 0):.0f}/{s.get('shmem_mb', 0):.0f}"
+                for s in samples[::step]))
     if summary["robot_matched_ms"]:
         m = summary["robot_matched_ms"]
         print(f"robots {'(secure) ' if a.secure else ''}matched with the server after {percentile(m, 0.5):.0f} ms "
