@@ -18,6 +18,7 @@
 #include "densemap/cli/common_options.h"
 #include "densemap/cli/option_cli.h"
 #include "densemap/densify/densify_dataset.h"
+#include "densemap/densify/error_breakdown.h"
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/densify/model_files.h"
 #include "densemap/io/pcd_file.h"
@@ -144,7 +145,7 @@ int runTrain(const TrainArgs& a) {
 struct EvalArgs {
   std::string source, scans, methods = "iln,bilinear,nearest", weights, full_weights;
   int rows = 64, columns = 1024, beam_step = 4, threads = 2, sim_scenes = 2, sim_scans = 5;
-  bool json = false;
+  bool json = false, breakdown = false;
 };
 
 int runEval(const EvalArgs& a) {
@@ -202,12 +203,16 @@ int runEval(const EvalArgs& a) {
     densify::ReconstructionScore sum;
     double ms = 0;
     std::vector<double> times;
+    densify::ErrorBreakdownOptions bo;
+    bo.beam_step = a.beam_step;
+    densify::ErrorBreakdown breakdown(bo);
     for (const auto& [pair, points] : pairs) {
       const auto t0 = Clock::now();
       const auto predicted = method->upsample(pair.input, pair.target.geometry);
       times.push_back(seconds(t0) * 1000.0);
       ms += times.back();
       const auto s = densify::scoreReconstruction(predicted, pair.target, points);
+      if (a.breakdown) breakdown.add(pair.input, predicted, pair.target);
       sum.mae_m += s.mae_m;
       sum.iou += s.iou;
       sum.precision += s.precision;
@@ -223,6 +228,9 @@ int runEval(const EvalArgs& a) {
         {"mae_m", sum.mae_m / n},       {"iou", sum.iou / n},  {"precision", sum.precision / n},
         {"recall", sum.recall / n},     {"f1", sum.f1 / n},    {"ms_per_scan", ms / n},
         {"ms_per_scan_median", median}, {"threads", a.threads}};
+    if (a.breakdown)
+      for (const densify::ErrorBin& bin : breakdown.bins())
+        j["mae_by"][bin.name] = {{"mae_m", bin.mae()}, {"pixels", bin.pixels}};
     if (a.json) {
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -230,6 +238,9 @@ int runEval(const EvalArgs& a) {
           "%-12s MAE %.3f m  IoU %.3f  precision %.3f  recall %.3f  F1 %.3f  %.1f ms/scan (median %.1f)\n",
           method->name().c_str(), sum.mae_m / n, sum.iou / n, sum.precision / n, sum.recall / n, sum.f1 / n,
           ms / n, median);
+      if (a.breakdown)
+        for (const densify::ErrorBin& bin : breakdown.bins())
+          std::printf("    %-26s MAE %.3f m over %zu pixels\n", bin.name.c_str(), bin.mae(), bin.pixels);
     }
     std::fflush(stdout);
   }
@@ -307,6 +318,9 @@ int main(int argc, char** argv) {
   eval->add_option("--sim-scans", e.sim_scans, "with --source sim: poses per scene")->capture_default_str();
   eval->add_option("--threads", e.threads, "libtorch threads")->capture_default_str();
   eval->add_flag("--json", e.json, "one JSON object per method");
+  eval->add_flag("--breakdown", e.breakdown,
+                 "also the MAE by row (on / between / below the input beams), range, depth edge, ground and "
+                 "the top and bottom rows");
 
   std::string in, out, weights;
   int rows = 64, columns = 1024, in_rows = 16, threads = 2;
