@@ -65,6 +65,24 @@ int runTrain(const TrainArgs& a) {
     extra.push_back(
         LidarGeometry{rows, columns, dense.fov_up_deg, dense.fov_down_deg, dense.fov_horizontal_deg});
   }
+  // --sim-style: a comma list of clean, sensor and real sensor models (both = clean,sensor).
+  std::vector<std::string> styles;
+  std::vector<io::SpinningLidarModel> models;
+  {
+    std::stringstream list(a.sim_style);
+    for (std::string style; std::getline(list, style, ',');) {
+      if (style == "both") {
+        styles.insert(styles.end(), {"clean", "sensor"});
+      } else if (style == "clean" || style == "sensor") {
+        styles.push_back(style);
+      } else {
+        models.push_back(io::SpinningLidarModel::byName(style));  // throws naming the known ones
+      }
+    }
+  }
+  const auto has = [](const std::vector<std::string>& v, const char* x) {
+    return std::find(v.begin(), v.end(), x) != v.end();
+  };
   std::vector<densify::RangeImagePair> data;
   const auto t_data = Clock::now();
   {
@@ -72,7 +90,7 @@ int runTrain(const TrainArgs& a) {
     for (int s = 0; s < a.sim_scenes; ++s) {
       // Scene seeds 1000+ train; densemap-iln eval's simulator test scenes use seeds below 1000.
       const auto seed = 1000 + static_cast<std::uint64_t>(s);
-      if (a.sim_style != "sensor") {
+      if (has(styles, "clean")) {
         auto ex = densify::simulatorExamples(seed, a.sim_scans, input_base, a.beam_step, dense);
         std::move(ex.begin(), ex.end(), std::back_inserter(data));
       }
@@ -80,8 +98,13 @@ int runTrain(const TrainArgs& a) {
         auto ex = densify::simulatorExamples(seed, a.sim_scans, input_base, a.beam_step, target);
         std::move(ex.begin(), ex.end(), std::back_inserter(data));
       }
-      if (a.sim_style != "clean" && dense.rows == input_base.rows) {
+      if (has(styles, "sensor") && dense.rows == input_base.rows) {
         auto ex = densify::sensorLikeSimulatorExamples(seed + 500, a.sim_scans, dense, a.beam_step);
+        std::move(ex.begin(), ex.end(), std::back_inserter(data));
+      }
+      for (const io::SpinningLidarModel& model : models) {
+        auto ex = densify::sensorModelSimulatorExamples(
+            seed + 2000, a.sim_scans, model, densify::imageGridOf(model, a.target_columns), a.beam_step);
         std::move(ex.begin(), ex.end(), std::back_inserter(data));
       }
       progress.step(static_cast<std::size_t>(s + 1));
@@ -163,6 +186,18 @@ int runEval(const EvalArgs& a) {
         pairs.emplace_back(std::move(ex), std::move(pts));
       }
     described = "simulator test scenes (seeds 1.." + std::to_string(a.sim_scenes) + ")";
+  } else if (a.source.rfind("sim:", 0) == 0) {
+    // A real sensor's model in the simulator (test scenes: seeds below 1000, as above).
+    const io::SpinningLidarModel model = io::SpinningLidarModel::byName(a.source.substr(4));
+    for (int s = 0; s < a.sim_scenes; ++s)
+      for (auto& ex :
+           densify::sensorModelSimulatorExamples(1 + static_cast<std::uint64_t>(s), a.sim_scans, model,
+                                                 densify::imageGridOf(model, a.columns), a.beam_step)) {
+        auto pts = densify::toPoints(ex.target);
+        pairs.emplace_back(std::move(ex), std::move(pts));
+      }
+    described =
+        model.name + " model in simulator test scenes (seeds 1.." + std::to_string(a.sim_scenes) + ")";
   } else {
     auto src = io::openSource(a.source);
     const auto range = cli::parseScanRange(a.scans, src->size());
@@ -274,11 +309,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   train->add_option("--sim-scans", t.sim_scans, "poses per scene")->capture_default_str();
   train
-      ->add_option("--sim-style", t.sim_style,
-                   "clean (renders on the pixel grid), sensor (projected like real scans: offset beams, 2048 "
-                   "returns per beam, 2 cm noise) or both")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"clean", "sensor", "both"}));
+      ->add_option(
+          "--sim-style", t.sim_style,
+          "comma list: clean (renders on the pixel grid), sensor (a uniform sensor projected like "
+          "real scans: offset beams, 2048 returns per beam, 2 cm noise), both (= clean,sensor), or a "
+          "real sensor's model: hdl64e, vlp16, os1_64 (its beam table, a unit's offsets and tilt, "
+          "noise, lost returns, foliage; scenes with pavements and hedges)")
+      ->capture_default_str();
   train->add_option("--target-rows", t.target_rows, "target beams (64; 128 with --target-columns 2048)")
       ->capture_default_str();
   train->add_option("--target-columns", t.target_columns, "target columns")->capture_default_str();
@@ -303,7 +340,8 @@ int main(int argc, char** argv) {
   auto* eval =
       app.add_subcommand("eval", "MAE, IoU, precision, recall, F1 (0.1 m voxels) and time per method");
   eval->add_option("--source", e.source,
-                   "64-beam scans (sequence directory, KITTI layout...) or 'sim' (default)");
+                   "64-beam scans (sequence directory, KITTI layout...), 'sim' (default: clean renders) or "
+                   "'sim:MODEL' (a real sensor's model: hdl64e, vlp16, os1_64)");
   eval->add_option("--scans", e.scans, "scan range FIRST:LAST");
   eval->add_option("--methods", e.methods,
                    "comma list of iln, iln-compact, iln-full, iln:WEIGHTS, bilinear, nearest")

@@ -1,5 +1,6 @@
 #include "densemap/densify/densify_dataset.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <unordered_set>
@@ -60,6 +61,37 @@ std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed
     out.push_back(std::move(ex));
   }
   return out;
+}
+
+std::vector<RangeImagePair> sensorModelSimulatorExamples(std::uint64_t scene_seed, int scans,
+                                                         const io::SpinningLidarModel& model,
+                                                         const LidarGeometry& dense, int beam_step) {
+  io::LidarSimulatorOptions o;
+  o.scans = scans;
+  o.scene.seed = scene_seed;
+  o.scene.pavements = true;
+  o.scene.hedges = 8;
+  o.scene.boxes = 20;
+  o.seed = scene_seed;
+  o.max_range = model.max_range_m;
+  o.speed = std::max(1.0, (o.scene.length - 30.0) / std::max(1, scans));
+  o.start_x = -o.scene.length / 2 + 15.0;
+  const io::LidarSimulator sim(o);
+  const io::SpinningLidarModel unit = model.unit(scene_seed);
+  std::vector<RangeImagePair> out;
+  for (int i = 0; i < scans; ++i) {
+    RangeImagePair ex;
+    ex.target = project(sim.render(static_cast<std::size_t>(i), unit).sensorPoints(), dense);
+    ex.input = keepEveryNthRow(ex.target, beam_step);
+    out.push_back(std::move(ex));
+  }
+  return out;
+}
+
+LidarGeometry imageGridOf(const io::SpinningLidarModel& model, int columns) {
+  if (model.name == "hdl64e") return LidarGeometry{64, columns, 2.0, -24.9, 360.0};
+  const auto [lo, hi] = std::minmax_element(model.elevation_deg.begin(), model.elevation_deg.end());
+  return LidarGeometry{model.beams(), columns, *hi, *lo, 360.0};
 }
 
 namespace {

@@ -107,6 +107,52 @@ Scan LidarSimulator::render(std::size_t i, const LidarGeometry& g) const {
   return s;
 }
 
+Scan LidarSimulator::render(std::size_t i, const SpinningLidarModel& m) const {
+  Scan s;
+  s.index = i;
+  s.frame = PointFrame::kSensor;
+  s.pose = pose(i);
+  std::mt19937_64 rng(options_.seed * 1000003ULL + i * 7919ULL + 17);
+  std::normal_distribution<double> noise(0.0, m.range_noise_m > 0 ? m.range_noise_m : 1.0);
+  std::uniform_real_distribution<double> chance(0.0, 1.0);
+  const double deg = std::numbers::pi / 180.0;
+  const Eigen::Matrix3d rot = s.pose.linear();
+  s.points.reserve(static_cast<std::size_t>(m.beams()) * static_cast<std::size_t>(m.firings_per_revolution));
+  for (int b = 0; b < m.beams(); ++b) {
+    const auto bi = static_cast<std::size_t>(b);
+    const double height = bi < m.height_offset_m.size() ? m.height_offset_m[bi] : 0.0;
+    const double az_offset = bi < m.azimuth_offset_deg.size() ? m.azimuth_offset_deg[bi] : 0.0;
+    const Eigen::Vector3d laser(0.0, 0.0, height);  // sensor frame
+    const Eigen::Vector3d origin = s.pose * laser;
+    for (int c = 0; c < m.firings_per_revolution; ++c) {
+      const double az_deg = 180.0 - (c + 0.5) * 360.0 / m.firings_per_revolution + az_offset;
+      const double el_deg = m.elevation_deg[bi] + m.tilt_deg * std::sin((az_deg - m.tilt_azimuth_deg) * deg);
+      const double az = az_deg * deg, el = el_deg * deg;
+      const Eigen::Vector3d dir_s(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+      const Eigen::Vector3d dir_w = rot * dir_s;
+      const auto hit = scene_.castHit(origin, dir_w, std::min(options_.max_range, m.max_range_m));
+      if (!hit) continue;
+      double lost = m.drop_probability;
+      if (hit->range > m.far_drop_from_m)
+        lost += m.far_drop_at_max * (hit->range - m.far_drop_from_m) /
+                std::max(1e-9, m.max_range_m - m.far_drop_from_m);
+      if (m.grazing_drop_below_deg > 0) {
+        const double incidence = std::asin(std::min(1.0, std::abs(hit->normal.dot(dir_w)))) / deg;
+        if (incidence < m.grazing_drop_below_deg) lost += 1.0 - incidence / m.grazing_drop_below_deg;
+      }
+      if (hit->vegetation) lost += m.vegetation_drop;
+      if (chance(rng) < lost) continue;
+      double range = hit->range;
+      if (hit->vegetation) range += m.vegetation_depth_m * chance(rng);
+      if (m.range_noise_m > 0) range += noise(rng);
+      if (range <= 0.0) continue;
+      // The point as the sensor reports it: from the laser's own origin, in the sensor frame.
+      s.points.push_back((laser + dir_s * range).cast<float>());
+    }
+  }
+  return s;
+}
+
 Scan LidarSimulator::read(std::size_t i) const {
   if (i >= size()) throw SourceError("simulator: scan " + std::to_string(i) + " out of range");
   return render(i, options_.lidar);

@@ -105,6 +105,20 @@ ProceduralScene::ProceduralScene(const SceneOptions& opt) : options_(opt) {
     cylinders_.push_back({c, uni(0.15, 0.35), 0.0, trunk});
     spheres_.push_back({{c.x(), c.y(), trunk + 0.6 * crown}, crown});
   }
+  if (opt.pavements) {
+    // Raised 0.1-0.2 m from the kerb to the buildings (the parked lane ends at 5.5 m).
+    for (int side : {-1, 1}) {
+      const double kerb = 5.5, outer = opt.road_half_width + 20.0, h = uni(0.1, 0.2);
+      boxes_.push_back(
+          {{-half - 10.0, side > 0 ? kerb : -outer, 0.0}, {half + 10.0, side > 0 ? outer : -kerb, h}});
+    }
+  }
+  for (int i = 0; i < opt.hedges; ++i) {
+    const double side = uni(0.0, 1.0) < 0.5 ? -1.0 : 1.0;
+    const double x = uni(-half, half), length = uni(3.0, 12.0), y = side * uni(6.5, 7.5),
+                 depth = uni(0.6, 1.2);
+    hedges_.push_back({{x - length / 2, y - depth / 2, 0.0}, {x + length / 2, y + depth / 2, uni(0.7, 1.6)}});
+  }
 }
 
 std::optional<double> ProceduralScene::cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
@@ -117,7 +131,55 @@ std::optional<double> ProceduralScene::cast(const Eigen::Vector3d& o, const Eige
   for (const Box& b : boxes_) consider(hitBox(b, o, d));
   for (const Cylinder& c : cylinders_) consider(hitCylinder(c, o, d));
   for (const Sphere& s : spheres_) consider(hitSphere(s, o, d));
+  for (const Box& b : hedges_) consider(hitBox(b, o, d));
   return best;
+}
+
+std::optional<ProceduralScene::Hit> ProceduralScene::castHit(const Eigen::Vector3d& o,
+                                                             const Eigen::Vector3d& d,
+                                                             double max_range) const {
+  // Which primitive was nearest: kind 0 ground, 1 box, 2 cylinder, 3 sphere (crown), 4 hedge.
+  std::optional<double> best;
+  int kind = -1;
+  std::size_t which = 0;
+  auto consider = [&](std::optional<double> t, int k, std::size_t i) {
+    if (t && *t <= max_range && (!best || *t < *best)) {
+      best = t;
+      kind = k;
+      which = i;
+    }
+  };
+  if (d.z() < -kEps) consider(-o.z() / d.z(), 0, 0);
+  for (std::size_t i = 0; i < boxes_.size(); ++i) consider(hitBox(boxes_[i], o, d), 1, i);
+  for (std::size_t i = 0; i < cylinders_.size(); ++i) consider(hitCylinder(cylinders_[i], o, d), 2, i);
+  for (std::size_t i = 0; i < spheres_.size(); ++i) consider(hitSphere(spheres_[i], o, d), 3, i);
+  for (std::size_t i = 0; i < hedges_.size(); ++i) consider(hitBox(hedges_[i], o, d), 4, i);
+  if (!best) return std::nullopt;
+  Hit hit;
+  hit.range = *best;
+  const Eigen::Vector3d p = o + *best * d;
+  hit.vegetation = kind == 3 || kind == 4;
+  if (kind == 1 || kind == 4) {
+    // The face the point lies on: the axis where it is nearest a bound.
+    const Box& b = kind == 1 ? boxes_[which] : hedges_[which];
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a)
+      for (double bound : {b.lo[a], b.hi[a]})
+        if (std::abs(p[a] - bound) < nearest) {
+          nearest = std::abs(p[a] - bound);
+          hit.normal = Eigen::Vector3d::Unit(a);
+        }
+  } else if (kind == 2) {
+    const Cylinder& c = cylinders_[which];
+    const Eigen::Vector2d radial = p.head<2>() - c.center;
+    const bool cap = std::abs(p.z() - c.z0) < 1e-6 || std::abs(p.z() - c.z1) < 1e-6;
+    hit.normal = cap || radial.norm() < kEps ? Eigen::Vector3d::UnitZ()
+                                             : Eigen::Vector3d(radial.x(), radial.y(), 0.0).normalized();
+  } else if (kind == 3) {
+    hit.normal = (p - spheres_[which].center).normalized();
+  }
+  if (hit.normal.dot(d) > 0) hit.normal = -hit.normal;
+  return hit;
 }
 
 }  // namespace densemap::io

@@ -7,6 +7,7 @@
 
 #include "densemap/densify/range_upsampler.h"
 #include "densemap/io/lidar_simulator.h"
+#include "densemap/io/spinning_lidar_model.h"
 
 namespace densemap::densify {
 
@@ -28,6 +29,18 @@ std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scan
 /// renders and real range images.
 std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed, int scans,
                                                         const LidarGeometry& dense, int beam_step);
+
+/// Simulator pairs from a real sensor's model (its beam table, one unit's calibration offsets and tilt,
+/// range noise, lost returns, porous foliage) in street scenes with pavements and hedges, projected on
+/// `dense` the way real scans are; the input is every `beam_step`-th row of that image. `scene_seed` picks
+/// the scene and the unit.
+std::vector<RangeImagePair> sensorModelSimulatorExamples(std::uint64_t scene_seed, int scans,
+                                                         const io::SpinningLidarModel& model,
+                                                         const LidarGeometry& dense, int beam_step);
+
+/// The range-image grid real scans of this model are projected on: KITTI's 64 x 1024 (+2 to -24.9
+/// degrees) for the HDL-64E, otherwise the model's beams over its own table's extremes.
+LidarGeometry imageGridOf(const io::SpinningLidarModel& model, int columns = 1024);
 
 /// Point-reconstruction and range accuracy of a predicted image (Sec. 4.4.2).
 struct ReconstructionScore {

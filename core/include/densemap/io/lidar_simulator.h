@@ -6,6 +6,7 @@
 
 #include "densemap/io/procedural_scene.h"
 #include "densemap/io/scan_source.h"
+#include "densemap/io/spinning_lidar_model.h"
 
 namespace densemap::io {
 
@@ -35,6 +36,9 @@ class LidarSimulator : public ScanSource {
 
   /// Renders scan i's pose with another beam layout (e.g. 16 and 64 beams of the same scene).
   Scan render(std::size_t i, const LidarGeometry& lidar) const;
+  /// Renders scan i's pose as a real sensor sees it (its beam table, offsets, tilt, noise and lost
+  /// returns); the points are in the sensor frame and carry no pixel grid: project them as real scans.
+  Scan render(std::size_t i, const SpinningLidarModel& sensor) const;
   Eigen::Isometry3d pose(std::size_t i) const;
   const ProceduralScene& scene() const { return scene_; }
   const LidarSimulatorOptions& options() const { return options_; }

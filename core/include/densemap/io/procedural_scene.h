@@ -19,6 +19,10 @@ struct SceneOptions {
   int boxes = 12;
   int poles = 16;
   int trees = 10;
+  /// Off by default (the demo's and tests' scenes stay as they were); ILN's real-sensor training scenes
+  /// turn them on: kerbs with raised pavements along both sides, and hedges in front of the buildings.
+  bool pavements = false;
+  int hedges = 0;
 };
 
 class ProceduralScene {
@@ -41,9 +45,20 @@ class ProceduralScene {
   std::optional<double> cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                              double max_range) const;
 
+  /// The first surface hit and its unit normal there (facing the ray), for sensor models whose returns
+  /// depend on the angle of incidence.
+  struct Hit {
+    double range = 0;
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+    bool vegetation = false;  ///< a tree crown or a hedge: porous, returns from inside it
+  };
+  std::optional<Hit> castHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                             double max_range) const;
+
   const std::vector<Box>& boxes() const { return boxes_; }
   const std::vector<Cylinder>& cylinders() const { return cylinders_; }
   const std::vector<Sphere>& spheres() const { return spheres_; }
+  const std::vector<Box>& hedges() const { return hedges_; }
   const SceneOptions& options() const { return options_; }
 
  private:
@@ -51,6 +66,7 @@ class ProceduralScene {
   std::vector<Box> boxes_;
   std::vector<Cylinder> cylinders_;
   std::vector<Sphere> spheres_;
+  std::vector<Box> hedges_;
 };
 
 }  // namespace densemap::io
