@@ -56,29 +56,20 @@ int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
   cli::SourceSelection source;
   std::string methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
-  double free_distance = 0.5, free_voxel = 0.0, min_radius = 0.0, min_occupied_radius = 0.0;
+  // The kernel layers' options are the server's table; the held-out protocol samples free space per
+  // dense cell (free voxel 0), where the server's default thins it to 0.3 m for 64-beam scans.
+  dense::DenseLayerOptions kernel_options;
+  kernel_options.free_voxel_size = 0.0;
   // The map and update options are the shared tables (also the kernel layers' cell size and ray cut).
   map::MapOptions map_options;
   map_options.resolution = 0.1;
   update::UpdateOptions update_options;
-  bool as_json = false, iso_free = false, equal_time = false;
+  bool as_json = false, equal_time = false;
   std::string roc_png, predictions_csv;
   int threads = 0, beam_step = 0;
   std::uint64_t seed = 1;
   std::string densify_method = "none", densify_weights;
   app.add_option("--methods", methods_text, "comma-separated: exact, bgk, akimap")->capture_default_str();
-  app.add_option("--free-sample-distance", free_distance,
-                 "kernel methods: one free sample per this many metres")
-      ->capture_default_str();
-  app.add_option("--free-voxel", free_voxel,
-                 "kernel methods: one free sample per voxel of this size (0: resolution)")
-      ->capture_default_str();
-  app.add_option("--min-search-radius", min_radius, "akimap: lower bound of the neighbour search radius (m)")
-      ->capture_default_str();
-  app.add_flag("--isotropic-free-kernels", iso_free, "akimap: free samples get isotropic kernels");
-  app.add_option("--min-occupied-search-radius", min_occupied_radius,
-                 "akimap: lower bound of occupied samples' neighbour search radius (m)")
-      ->capture_default_str();
   app.add_option("--seed", seed, "seed of the split, the test points and the free samples")
       ->capture_default_str();
   app.add_option("--roc-csv", roc_csv, "write the ROC curves (method,threshold,fpr,tpr) to this CSV file");
@@ -106,8 +97,10 @@ int main(int argc, char** argv) {
   auto update_table = cli::updateOptions(update_options);
   auto logging_table = cli::loggingOptions(log_level);
   auto source_table = cli::sourceOptions(source);
-  cli::addToApp(app, {&source_table, &map_table, &update_table, &logging_table});
-  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &update_table, &logging_table}))
+  auto kernel_table = cli::kernelLayerOptions(kernel_options);
+  cli::addToApp(app, {&source_table, &map_table, &update_table, &kernel_table, &logging_table});
+  if (const auto rc = cli::parse(app, argc, argv,
+                                 {&source_table, &map_table, &update_table, &kernel_table, &logging_table}))
     return *rc;
   const double resolution = map_options.resolution, max_range = update_options.max_range;
   cli::setupLogging(log_level);
@@ -204,16 +197,11 @@ int main(int argc, char** argv) {
           if (const auto v = grid->logOdds(k)) pred[i] = map::OccupancyParams::probability(*v);
         }
       } else if (m == "bgk" || m == "akimap") {
-        dense::DenseLayerOptions lo;
+        dense::DenseLayerOptions lo = kernel_options;
         lo.method = m;
         lo.resolution = resolution;
-        lo.free_sample_distance = free_distance;
         lo.max_range = max_range;
-        lo.free_voxel_size = free_voxel;
         lo.seed = seed;
-        lo.min_search_radius = min_radius;
-        lo.isotropic_free_kernels = iso_free;
-        lo.min_occupied_search_radius = min_occupied_radius;
         const std::unique_ptr<dense::KernelLayer> layer = dense::makeDenseLayer(lo, resolution);
         const auto t0 = Clock::now();
         for (const auto& s : used) layer->insert(s.map_points, s.origin);

@@ -32,9 +32,6 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
     t.add("dense-layer", o.dense.method, "none, akimap or bgk").oneOf({"none", "akimap", "bgk"});
     t.add("dense-resolution", o.dense.resolution, "cell size in metres (0: the map's resolution)")
         .range(0.0, 100.0);
-    t.add("dense-free-voxel", o.dense.free_voxel_size,
-          "one free sample per voxel of this size (0: the dense resolution)")
-        .range(0.0, 100.0);
     t.add("dense-max-range", o.dense.max_range, "cut rays here for the dense layer (metres; < 0: unlimited)")
         .range(-1.0, 1e5);
     t.addChoice(
@@ -44,12 +41,8 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         "its layer is that of every acknowledged scan, also after a restart)");
     t.add("dense-nice", o.dense_nice, "nice value of its threads: it drops scans rather than fall behind")
         .range(0, 19);
-    t.add("dense-isotropic-free", o.dense.isotropic_free_kernels,
-          "AKIMap: isotropic kernels for free samples (docs/BENCHMARKS.md)");
-    t.add("dense-min-occupied-radius", o.dense.min_occupied_search_radius,
-          "AKIMap: floor of occupied samples' search radius in metres (0: the dissertation's)")
-        .range(0.0, 100.0);
   }
+  tables.push_back(cli::kernelLayerOptions(o.dense));
   {
     cli::OptionTable& t = tables.emplace_back(
         "Map memory (grid backend): a rolling window and a cap; blocks that leave come back when a scan "

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "densemap/dense/adaptive_kernel_layer.h"
+#include "densemap/dense/dense_layer_factory.h"
 #include "service_harness.h"
 
 namespace densemap::test {
@@ -32,11 +32,9 @@ TEST(ServiceDense, DenseAndFusedLayersAnswerFromTheirMaps) {
     ASSERT_EQ(h.server->denseStore()->version(), i + 1) << "the dense stage did not take scan " << i;
   }
   // The same scans offline (same seed): equal up to the order of floating-point additions.
-  dense::AdaptiveKernelOptions ao;
-  ao.layer.resolution = o.map.resolution;
-  ao.layer.sampling.max_range = o.dense.max_range;
-  ao.layer.sampling.free_voxel_size = o.dense.free_voxel_size;
-  dense::AdaptiveKernelLayer offline(ao);
+  // Built by the same factory from the same options the server was given.
+  const auto offline_layer = dense::makeDenseLayer(o.dense, o.map.resolution);
+  dense::KernelLayer& offline = *offline_layer;
   const auto exact = offlineMap<map::GridMap>(scans, o.map.resolution);
   for (const auto& s : scans) {
     const io::Scan sent = asSent(s);

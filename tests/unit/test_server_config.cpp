@@ -34,6 +34,7 @@ ServerConfig parse(std::vector<std::string> args) {
   cli::addToApp(app, list);
   std::reverse(args.begin(), args.end());
   app.parse(args);
+  cli::markGiven(app, list);
   cli::finishOptions(list);
   return c;
 }
@@ -75,6 +76,31 @@ TEST(ServerConfig, FlagsAndEnumerationsFillTheOptions) {
   EXPECT_EQ(c.service.densify.robots, (std::vector<std::string>{"a", "b"}));
   EXPECT_TRUE(c.service.drop_on_exit);
   EXPECT_EQ(c.edge.query_threads, 4);
+}
+
+TEST(ServerConfig, TheAkimapPresetSetsWhatIsNotGivenAndGivenValuesWin) {
+  const ServerConfig measured = parse({"--dense-layer", "akimap"});
+  EXPECT_EQ(measured.service.dense.akimap_preset, "measured");
+  EXPECT_TRUE(measured.service.dense.isotropic_free_kernels);
+  EXPECT_DOUBLE_EQ(measured.service.dense.min_occupied_search_radius, 0.3);
+  const ServerConfig dissertation = parse({"--akimap-preset", "dissertation"});
+  EXPECT_FALSE(dissertation.service.dense.isotropic_free_kernels);
+  EXPECT_DOUBLE_EQ(dissertation.service.dense.min_occupied_search_radius, 0.0);
+  const ServerConfig mixed = parse({"--akimap-preset", "dissertation", "--dense-min-occupied-radius", "0.2"});
+  EXPECT_FALSE(mixed.service.dense.isotropic_free_kernels);
+  EXPECT_DOUBLE_EQ(mixed.service.dense.min_occupied_search_radius, 0.2);
+  // In a configuration file too; the shipped file leaves both extensions commented out, so the preset
+  // a user picks there (or on the command line) is not overridden by it.
+  const std::string path = ::testing::TempDir() + "/preset.toml";
+  std::ofstream(path) << "akimap-preset = \"dissertation\"\n";
+  const ServerConfig from_file = parse({"--config", path});
+  EXPECT_FALSE(from_file.service.dense.isotropic_free_kernels);
+  EXPECT_DOUBLE_EQ(from_file.service.dense.min_occupied_search_radius, 0.0);
+  const ServerConfig shipped_then_flag =
+      parse({"--config", std::string(DENSEMAP_SOURCE_DIR) + "/config/server.toml", "--akimap-preset",
+             "dissertation"});
+  EXPECT_FALSE(shipped_then_flag.service.dense.isotropic_free_kernels);
+  EXPECT_THROW(parse({"--akimap-preset", "fastest"}), std::exception);
 }
 
 TEST(ServerConfig, AMisspeltKeyInTheFileIsAnError) {

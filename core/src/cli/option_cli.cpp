@@ -36,12 +36,19 @@ void addToApp(CLI::App& app, const std::vector<OptionTable*>& tables) {
   }
 }
 
+void markGiven(const CLI::App& app, const std::vector<OptionTable*>& tables) {
+  for (OptionTable* t : tables)
+    for (OptionSpec& o : t->options())
+      if (const CLI::Option* opt = app.get_option_no_throw("--" + o.name)) o.given = opt->count() > 0;
+}
+
 std::optional<int> parse(CLI::App& app, int argc, char** argv, const std::vector<OptionTable*>& tables) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  markGiven(app, tables);
   try {
     finishOptions(tables);
   } catch (const std::invalid_argument& e) {

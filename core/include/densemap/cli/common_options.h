@@ -6,6 +6,7 @@
 #include <string>
 
 #include "densemap/cli/option_table.h"
+#include "densemap/dense/dense_layer_factory.h"
 #include "densemap/io/scan_source.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/update/update_engine.h"
@@ -29,5 +30,9 @@ OptionTable loggingOptions(std::string& level);
 OptionTable mapOptions(map::MapOptions& options);
 /// --method, --semantics, --max-range.
 OptionTable updateOptions(update::UpdateOptions& options);
+/// The kernel layers' settings (Ch. 3) shared by densemap-server and densemap-eval: --dense-free-sample-
+/// distance, --dense-free-voxel, --dense-min-search-radius, --akimap-preset and the two AKIMap extensions
+/// (--dense-isotropic-free, --dense-min-occupied-radius), which the preset sets unless given.
+OptionTable kernelLayerOptions(dense::DenseLayerOptions& options);
 
 }  // namespace densemap::cli

@@ -16,6 +16,10 @@ namespace densemap::cli {
 /// an error.
 void addToApp(CLI::App& app, const std::vector<OptionTable*>& tables);
 
+/// After `app` parsed: marks each option set on the command line or in the configuration file as given
+/// (cli::parse does this; a program that calls app.parse itself calls it before finishOptions).
+void markGiven(const CLI::App& app, const std::vector<OptionTable*>& tables);
+
 /// Parses the command line (and --config), then commits and validates the tables. Returns the exit code
 /// when the program should stop (--help, or a bad option, said on stderr), else nullopt.
 std::optional<int> parse(CLI::App& app, int argc, char** argv, const std::vector<OptionTable*>& tables);

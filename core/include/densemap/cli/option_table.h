@@ -31,6 +31,8 @@ struct OptionSpec {
   std::function<std::string()> check;
   /// Written commented out in the example configuration (no meaningful default, e.g. a file).
   bool example_only = false;
+  /// Set on the command line or in the configuration file (filled in by cli::parse).
+  bool given = false;
 
   OptionSpec& range(double lo, double hi) {
     min = lo;
@@ -86,6 +88,9 @@ class OptionTable {
     return add(std::move(name), text, std::move(help)).oneOf(std::move(choices));
   }
 
+  /// Runs `f` after parsing, with the enumerations: for values derived from others (a preset that sets
+  /// what was not given).
+  void afterParse(std::function<void()> f) { commits_.push_back(std::move(f)); }
   /// Stores enumerations chosen by name into their fields (after parsing).
   void commit();
   /// Empty when every value is within its range, choices and check; else "--name: what is wrong".

@@ -19,9 +19,16 @@ struct DenseLayerOptions {
   std::uint64_t seed = 1;   ///< free-sample generator
   /// AKIMap: lower bound of every sample's search radius (0: the dissertation's schedule).
   double min_search_radius = 0.0;
+  /// AKIMap's settings by name: "measured" (the default: the two extensions below, the best measured
+  /// configuration, above BGK on both la3dm scenes, docs/BENCHMARKS.md) or "dissertation" (Ch. 3 as it
+  /// stands: both off). cli::kernelLayerOptions applies it to the two fields a user did not set.
+  std::string akimap_preset = "measured";
   /// AKIMap extensions (dense/adaptive_kernel_layer.h): isotropic free kernels, occupied radius floor.
-  bool isotropic_free_kernels = false;
-  double min_occupied_search_radius = 0.0;
+  bool isotropic_free_kernels = true;
+  double min_occupied_search_radius = 0.3;
+
+  /// Sets the two extensions to `preset`'s values; throws std::invalid_argument for an unknown name.
+  void applyAkimapPreset(const std::string& preset);
 };
 
 /// Null for "none"; throws std::invalid_argument for an unknown method. `default_resolution` is used
