@@ -39,7 +39,7 @@ bool DensifyStage::applies(const ScanJob& job) const {
 }
 
 StageResult DensifyStage::process(ScanJob& job) {
-  if (!applies(job) || job.scan.lidar->rows >= options_.target_rows) return {};
+  if (!applies(job) || job.scan.lidar->rows >= options_.target_rows) return StageResult::passThrough();
   const io::LidarGeometry& in = *job.scan.lidar;
   const io::LidarGeometry out = densifiedGeometry(in, options_.target_rows, options_.target_columns);
   const auto image = densify::project(job.scan.sensorPoints(), in);

@@ -209,8 +209,9 @@ void Pipeline::runStage(std::size_t index) {
     }
     const auto t0 = std::chrono::steady_clock::now();
     StageResult result = stage.impl->process(*job);
-    stage.latency.add(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (!result.passed_through)
+      stage.latency.add(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     ++stage.processed;
     pass(index, std::move(*job), result);
   }

@@ -63,6 +63,11 @@ TEST(ServiceDensify, OnlyTheSelectedRobotsAreDensified) {
   std::vector<io::Scan> expected_scans = full;
   for (const auto& s : sparse) expected_scans.push_back(densified(s, bilinear, 64));
   expectServedEquals(h, *offlineMap<map::GridMap>(expected_scans, o.map.resolution));
+  // Every scan passes the stage; its latency counts only the ones it densified.
+  const server::ServiceStatistics stats = h.server->service.statistics();
+  ASSERT_EQ(stats.stages[0].name, "densify");
+  EXPECT_EQ(stats.stages[0].processed, full.size() + sparse.size());
+  EXPECT_EQ(stats.stages[0].latency.count, sparse.size());
 }
 
 TEST(ServiceDensify, TheShippedIlnModelDensifiesInTheService) {

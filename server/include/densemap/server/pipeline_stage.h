@@ -17,8 +17,12 @@ struct StageResult {
   bool ok = true;
   std::string error;       ///< why the scan was rejected (when !ok), or why it is a duplicate
   bool duplicate = false;  ///< with !ok: the scan is in the map already (outcome kDuplicate)
-  static StageResult reject(std::string why) { return {false, std::move(why), false}; }
-  static StageResult alreadyInMap(std::string why) { return {false, std::move(why), true}; }
+  /// The stage had nothing to do for this scan (densify and a scan already dense): its time is left out
+  /// of the stage's latency, which then says what the stage costs the scans it works on.
+  bool passed_through = false;
+  static StageResult reject(std::string why) { return {false, std::move(why), false, false}; }
+  static StageResult alreadyInMap(std::string why) { return {false, std::move(why), true, false}; }
+  static StageResult passThrough() { return {true, {}, false, true}; }
 };
 
 class PipelineStage {
