@@ -208,7 +208,11 @@ int runEval(const EvalArgs& a) {
                          scan.sensorPoints());
     }
   }
-  spdlog::info("evaluating {} scans of {}", pairs.size(), described);
+  // With --json stdout carries only the JSON lines (logs go to stdout here), so this one goes to stderr.
+  if (a.json)
+    std::fprintf(stderr, "evaluating %zu scans of %s\n", pairs.size(), described.c_str());
+  else
+    spdlog::info("evaluating {} scans of {}", pairs.size(), described);
 
   std::vector<std::unique_ptr<densify::RangeUpsampler>> methods;
   std::stringstream list(a.methods);
