@@ -7,19 +7,6 @@
 
 namespace densemap::dense {
 
-void DenseLayerOptions::applyAkimapPreset(const std::string& preset) {
-  if (preset == "measured") {
-    isotropic_free_kernels = true;
-    min_occupied_search_radius = 0.3;
-  } else if (preset == "dissertation") {
-    isotropic_free_kernels = false;
-    min_occupied_search_radius = 0.0;
-  } else {
-    throw std::invalid_argument("unknown AKIMap preset '" + preset + "' (use measured or dissertation)");
-  }
-  akimap_preset = preset;
-}
-
 std::unique_ptr<KernelLayer> makeDenseLayer(const DenseLayerOptions& o, double default_resolution) {
   if (o.method == "none") return nullptr;
   KernelLayerOptions lo;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "densemap/dense/kernel_layer.h"
@@ -28,7 +29,19 @@ struct DenseLayerOptions {
   double min_occupied_search_radius = 0.3;
 
   /// Sets the two extensions to `preset`'s values; throws std::invalid_argument for an unknown name.
-  void applyAkimapPreset(const std::string& preset);
+  /// (Inline: the option tables use it without linking the kernel layers.)
+  void applyAkimapPreset(const std::string& preset) {
+    if (preset == "measured") {
+      isotropic_free_kernels = true;
+      min_occupied_search_radius = 0.3;
+    } else if (preset == "dissertation") {
+      isotropic_free_kernels = false;
+      min_occupied_search_radius = 0.0;
+    } else {
+      throw std::invalid_argument("unknown AKIMap preset '" + preset + "' (use measured or dissertation)");
+    }
+    akimap_preset = preset;
+  }
 };
 
 /// Null for "none"; throws std::invalid_argument for an unknown method. `default_resolution` is used
