@@ -14,17 +14,24 @@ RangeImagePair exampleFromScan(const io::Scan& scan, const LidarGeometry& dense,
   return ex;
 }
 
-std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scans,
-                                              const LidarGeometry& input_base, int beam_step,
-                                              const LidarGeometry& target) {
+namespace {
+/// The simulator driving a procedural scene's road, `scans` poses spread over its whole length (so the
+/// examples differ); `scene_seed` seeds the scene and the noise.
+io::LidarSimulatorOptions roadOptions(std::uint64_t scene_seed, int scans) {
   io::LidarSimulatorOptions o;
   o.scans = scans;
   o.scene.seed = scene_seed;
   o.seed = scene_seed;
-  // Spread the poses over the whole road so the examples differ.
   o.speed = std::max(1.0, (o.scene.length - 30.0) / std::max(1, scans));
   o.start_x = -o.scene.length / 2 + 15.0;
-  const io::LidarSimulator sim(o);
+  return o;
+}
+}  // namespace
+
+std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scans,
+                                              const LidarGeometry& input_base, int beam_step,
+                                              const LidarGeometry& target) {
+  const io::LidarSimulator sim(roadOptions(scene_seed, scans));
   const LidarGeometry sparse = everyNthBeam(input_base, beam_step);
   std::vector<RangeImagePair> out;
   for (int i = 0; i < scans; ++i) {
@@ -38,13 +45,8 @@ std::vector<RangeImagePair> simulatorExamples(std::uint64_t scene_seed, int scan
 
 std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed, int scans,
                                                         const LidarGeometry& dense, int beam_step) {
-  io::LidarSimulatorOptions o;
-  o.scans = scans;
-  o.scene.seed = scene_seed;
-  o.seed = scene_seed;
+  io::LidarSimulatorOptions o = roadOptions(scene_seed, scans);
   o.range_noise = 0.02;
-  o.speed = std::max(1.0, (o.scene.length - 30.0) / std::max(1, scans));
-  o.start_x = -o.scene.length / 2 + 15.0;
   const io::LidarSimulator sim(o);
   std::mt19937_64 rng(scene_seed);
   const double row_step = (dense.fov_up_deg - dense.fov_down_deg) / std::max(1, dense.rows - 1);
@@ -66,16 +68,11 @@ std::vector<RangeImagePair> sensorLikeSimulatorExamples(std::uint64_t scene_seed
 std::vector<RangeImagePair> sensorModelSimulatorExamples(std::uint64_t scene_seed, int scans,
                                                          const io::SpinningLidarModel& model,
                                                          const LidarGeometry& dense, int beam_step) {
-  io::LidarSimulatorOptions o;
-  o.scans = scans;
-  o.scene.seed = scene_seed;
+  io::LidarSimulatorOptions o = roadOptions(scene_seed, scans);
   o.scene.pavements = true;
   o.scene.hedges = 8;
   o.scene.boxes = 20;
-  o.seed = scene_seed;
   o.max_range = model.max_range_m;
-  o.speed = std::max(1.0, (o.scene.length - 30.0) / std::max(1, scans));
-  o.start_x = -o.scene.length / 2 + 15.0;
   const io::LidarSimulator sim(o);
   const io::SpinningLidarModel unit = model.unit(scene_seed);
   std::vector<RangeImagePair> out;
