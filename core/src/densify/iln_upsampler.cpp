@@ -1,8 +1,11 @@
 // The only translation unit that includes <torch/torch.h> (each costs ~20 s to compile).
 #include "densemap/densify/iln_upsampler.h"
 
+#include "densemap/densify/iln_weight_head.h"
+
 #include <torch/torch.h>
 
+#include <dlfcn.h>
 #include <malloc.h>
 
 #include <algorithm>
@@ -128,115 +131,41 @@ torch::Tensor imageTensor(const RangeImage& img, float max_range) {
   return t / max_range * 2.0 - 1.0;
 }
 
-/// The weight head for inference without libtorch's per-operator overhead: with 4 tokens of 16-64 values,
-/// torch spent ~10 us per query on dispatch and temporaries (measured 180-760 ms for 44k queries); the same
-/// arithmetic written out per query runs in a few ms. It reads the trained parameters; tests check it
-/// against the torch forward.
-class FastHead {
- public:
-  explicit FastHead(WeightHeadImpl& h) : heads_(h.heads) {
-    const auto copy = [](const torch::Tensor& t) {
-      const auto c = (t.dim() == 2 ? t.detach().t() : t.detach()).contiguous().to(torch::kFloat32);
-      return std::vector<float>(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-    };
-    c_ = static_cast<int>(h.qkv->weight.size(1));
-    mlp_ = static_cast<int>(h.fc1->weight.size(0));
-    we_ = copy(h.embed->weight), be_ = copy(h.embed->bias);
-    g1_ = copy(h.norm1->weight), b1_ = copy(h.norm1->bias);
-    wqkv_ = copy(h.qkv->weight), bqkv_ = copy(h.qkv->bias);
-    wp_ = copy(h.proj->weight), bp_ = copy(h.proj->bias);
-    g2_ = copy(h.norm2->weight), b2_ = copy(h.norm2->bias);
-    w1_ = copy(h.fc1->weight), bf1_ = copy(h.fc1->bias);
-    w2_ = copy(h.fc2->weight), bf2_ = copy(h.fc2->bias);
-    g3_ = copy(h.norm3->weight), b3_ = copy(h.norm3->bias);
-    ws_ = copy(h.score->weight), bs_ = copy(h.score->bias);
-  }
+/// The trained weight head's parameters for IlnWeightHead, inference without libtorch's per-operator
+/// overhead: with 4 tokens of 16-64 values, torch spent ~10 us per query on dispatch and temporaries
+/// (measured 180-760 ms for 44k queries).
+IlnWeightHeadParameters headParameters(WeightHeadImpl& h) {
+  const auto copy = [](const torch::Tensor& t) {
+    const auto c = t.detach().contiguous().to(torch::kFloat32);
+    return std::vector<float>(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  };
+  IlnWeightHeadParameters p;
+  p.channels = static_cast<int>(h.qkv->weight.size(1));
+  p.heads = h.heads;
+  p.mlp = static_cast<int>(h.fc1->weight.size(0));
+  p.embed_w = copy(h.embed->weight), p.embed_b = copy(h.embed->bias);
+  p.norm1_g = copy(h.norm1->weight), p.norm1_b = copy(h.norm1->bias);
+  p.qkv_w = copy(h.qkv->weight), p.qkv_b = copy(h.qkv->bias);
+  p.proj_w = copy(h.proj->weight), p.proj_b = copy(h.proj->bias);
+  p.norm2_g = copy(h.norm2->weight), p.norm2_b = copy(h.norm2->bias);
+  p.fc1_w = copy(h.fc1->weight), p.fc1_b = copy(h.fc1->bias);
+  p.fc2_w = copy(h.fc2->weight), p.fc2_b = copy(h.fc2->bias);
+  p.norm3_g = copy(h.norm3->weight), p.norm3_b = copy(h.norm3->bias);
+  p.score_w = copy(h.score->weight), p.score_b = copy(h.score->bias);
+  return p;
+}
 
-  /// tokens: 4 x C neighbour features; offsets: 4 x 2; ranges, valid: 4 -> weighted range (normalised).
-  float predict(const float* tokens, const float* offsets, const float* ranges, const bool* valid) const {
-    const int c = c_, hd = c_ / heads_;
-    float x[4][kMaxC], y[4][kMaxC], qkv[4][3 * kMaxC], mixed[4][kMaxC], hidden[kMaxMlp], score[4];
-    for (int t = 0; t < 4; ++t)
-      for (int i = 0; i < c; ++i)
-        x[t][i] = tokens[t * c + i] + we_[i] * offsets[2 * t] + we_[c + i] * offsets[2 * t + 1] + be_[i];
-    for (int t = 0; t < 4; ++t) {
-      layerNorm(x[t], g1_, b1_, y[t]);
-      affine(wqkv_, bqkv_, y[t], 3 * c, c, qkv[t]);
-    }
-    const float scale = 1.0f / std::sqrt(static_cast<float>(hd));
-    for (int h = 0; h < heads_; ++h) {
-      for (int i = 0; i < 4; ++i) {
-        float a[4], m = -1e30f, z = 0;
-        for (int j = 0; j < 4; ++j) {
-          float dot = 0;
-          for (int d = 0; d < hd; ++d) dot += qkv[i][h * hd + d] * qkv[j][c + h * hd + d];
-          a[j] = dot * scale;
-          m = std::max(m, a[j]);
-        }
-        for (int j = 0; j < 4; ++j) z += (a[j] = std::exp(a[j] - m));
-        for (int d = 0; d < hd; ++d) {
-          float v = 0;
-          for (int j = 0; j < 4; ++j) v += a[j] * qkv[j][2 * c + h * hd + d];
-          mixed[i][h * hd + d] = v / z;
-        }
-      }
-    }
-    float tmp[kMaxC];
-    for (int t = 0; t < 4; ++t) {
-      affine(wp_, bp_, mixed[t], c, c, tmp);
-      for (int i = 0; i < c; ++i) x[t][i] += tmp[i];
-      layerNorm(x[t], g2_, b2_, y[t]);
-      affine(w1_, bf1_, y[t], mlp_, c, hidden);
-      for (int i = 0; i < mlp_; ++i)
-        hidden[i] = 0.5f * hidden[i] * (1.0f + std::erf(hidden[i] * 0.70710678f));
-      affine(w2_, bf2_, hidden, c, mlp_, tmp);
-      for (int i = 0; i < c; ++i) x[t][i] += tmp[i];
-      layerNorm(x[t], g3_, b3_, y[t]);
-      float sc = bs_[0];
-      for (int i = 0; i < c; ++i) sc += ws_[static_cast<std::size_t>(i)] * y[t][i];
-      score[t] = valid[t] ? sc : -1e9f;
-    }
-    const float m = std::max(std::max(score[0], score[1]), std::max(score[2], score[3]));
-    float z = 0, r = 0;
-    for (int t = 0; t < 4; ++t) {
-      const float e = std::exp(score[t] - m);
-      z += e;
-      r += e * ranges[t];
-    }
-    return r / z;
-  }
-
-  static constexpr int kMaxC = 128, kMaxMlp = 256;
-  bool fits() const { return c_ <= kMaxC && mlp_ <= kMaxMlp; }
-
- private:
-  void layerNorm(const float* in, const std::vector<float>& g, const std::vector<float>& b,
-                 float* out) const {
-    float mean = 0, var = 0;
-    for (int i = 0; i < c_; ++i) mean += in[i];
-    mean /= static_cast<float>(c_);
-    for (int i = 0; i < c_; ++i) var += (in[i] - mean) * (in[i] - mean);
-    const float inv = 1.0f / std::sqrt(var / static_cast<float>(c_) + 1e-5f);  // torch's default eps
-    for (int i = 0; i < c_; ++i)
-      out[i] = (in[i] - mean) * inv * g[static_cast<std::size_t>(i)] + b[static_cast<std::size_t>(i)];
-  }
-  /// out = W in + b, W [rows x cols] row-major (torch's Linear layout).
-  /// out = W in + b with W stored transposed ([cols][rows]): the inner loop is an axpy over the outputs,
-  /// which the compiler vectorises without -ffast-math (a row-by-row dot product would stay scalar).
-  static void affine(const std::vector<float>& wt, const std::vector<float>& b, const float* in, int rows,
-                     int cols, float* out) {
-    std::copy_n(b.data(), rows, out);
-    for (int i = 0; i < cols; ++i) {
-      const float x = in[i];
-      const float* col = wt.data() + static_cast<std::ptrdiff_t>(i) * rows;
-      for (int r = 0; r < rows; ++r) out[r] += col[r] * x;
-    }
-  }
-
-  int heads_, c_ = 0, mlp_ = 0;
-  std::vector<float> we_, be_, g1_, b1_, wqkv_, bqkv_, wp_, bp_, g2_, b2_, w1_, bf1_, w2_, bf2_, g3_, b3_,
-      ws_, bs_;
-};
+/// libtorch runs these convolutions as im2col + sgemm on the system BLAS (Debian: OpenBLAS, pthreads). Its
+/// worker thread spins on sched_yield for about 0.1 s after each call and so takes a core from the OpenMP
+/// threads doing the rest: encoder stalls of 85-130 ms in 1-3 scans of 20, training 40% slower (measured,
+/// docs/BENCHMARKS.md). With one BLAS thread both go; libtorch and the weight head still use OpenMP.
+void keepBlasOnTheCallingThread() {
+  void* blas = dlopen("libopenblas.so.0", RTLD_LAZY | RTLD_NOLOAD);
+  if (!blas) return;  // another BLAS, not loaded by libtorch here
+  using SetThreads = void (*)(int);
+  if (auto* set = reinterpret_cast<SetThreads>(dlsym(blas, "openblas_set_num_threads"))) set(1);
+  dlclose(blas);
+}
 
 }  // namespace
 
@@ -246,7 +175,7 @@ struct IlnUpsampler::Impl {
   IlnNet net;
   std::unique_ptr<torch::optim::Adam> adam;
   std::uint64_t step = 0;
-  std::unique_ptr<FastHead> fast;  ///< rebuilt when the weights change (training steps, loading)
+  std::unique_ptr<IlnWeightHead> fast;  ///< rebuilt when the weights change (training steps, loading)
   std::uint64_t fast_step = ~0ull;
 
   // The query geometry of the last layout pair (a server densifies one LiDAR's scans to one layout).
@@ -265,12 +194,12 @@ struct IlnUpsampler::Impl {
     return neighbour_cache;
   }
 
-  const FastHead* fastHead() {
+  const IlnWeightHead& fastHead() {
     if (!fast || fast_step != step) {
-      fast = std::make_unique<FastHead>(*net->head);
+      fast = std::make_unique<IlnWeightHead>(headParameters(*net->head));
       fast_step = step;
     }
-    return fast->fits() ? fast.get() : nullptr;
+    return *fast;
   }
 
   torch::optim::Adam& optimizer(double lr) {
@@ -286,14 +215,15 @@ IlnUpsampler::IlnUpsampler(const IlnOptions& options, std::uint64_t seed) {
     throw std::invalid_argument("ILN options: channels must be a positive multiple of heads, blocks >= 0");
   torch::manual_seed(seed);
   impl_ = std::make_unique<Impl>(options);
-  // Each scan allocates and frees the same few-MB tensors; glibc would hand them back to the kernel and
-  // fault them in again (a sixth of inference time in a profile). Keep freed memory for reuse instead.
-  static const bool malloc_tuned = [] {
+  static const bool process_tuned = [] {
+    // Each scan allocates and frees the same few-MB tensors; glibc would hand them back to the kernel and
+    // fault them in again (a sixth of inference time in a profile). Keep freed memory for reuse instead.
     mallopt(M_MMAP_THRESHOLD, 64 << 20);
     mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    keepBlasOnTheCallingThread();
     return true;
   }();
-  (void)malloc_tuned;
+  (void)process_tuned;
 }
 IlnUpsampler::~IlnUpsampler() = default;
 IlnUpsampler::IlnUpsampler(IlnUpsampler&&) noexcept = default;
@@ -415,21 +345,13 @@ RangeImage IlnUpsampler::upsample(const RangeImage& input, const LidarGeometry& 
   const auto off = torch::from_blob(offsets.data(), {n, 4, 2}, torch::kFloat32);
   const auto rng = torch::from_blob(ranges.data(), {n, 4}, torch::kFloat32);
   const auto val = torch::from_blob(valid.data(), {n, 4}, torch::kUInt8).to(torch::kBool);
-  if (const FastHead* head = use_fast_head_ ? impl_->fastHead() : nullptr) {
-    const float* features = flat.data_ptr<float>();
-#pragma omp parallel for schedule(static)
-    for (std::int64_t i = 0; i < n; ++i) {
-      float tokens[4 * FastHead::kMaxC];
-      bool ok[4];
-      for (std::size_t t = 0; t < 4; ++t) {
-        const std::size_t k = static_cast<std::size_t>(i) * 4 + t;
-        std::copy_n(features + index[k] * c, c, tokens + static_cast<std::ptrdiff_t>(t) * c);
-        ok[t] = valid[k] != 0;
-      }
-      const float r = head->predict(tokens, offsets.data() + static_cast<std::size_t>(i) * 8,
-                                    ranges.data() + static_cast<std::size_t>(i) * 4, ok);
-      out.range[static_cast<std::size_t>(todo[static_cast<std::size_t>(i)])] = (r + 1.0f) * (mr / 2.0f);
-    }
+  if (use_fast_head_) {
+    std::vector<float> predicted(static_cast<std::size_t>(n));
+    impl_->fastHead().predict({flat.data_ptr<float>(), index.data(), offsets.data(), ranges.data(),
+                               valid.data(), static_cast<std::size_t>(n)},
+                              predicted.data());
+    for (std::size_t i = 0; i < predicted.size(); ++i)
+      out.range[static_cast<std::size_t>(todo[i])] = (predicted[i] + 1.0f) * (mr / 2.0f);
   } else {
     const auto tokens = flat.index_select(0, idx).view({n, 4, c});
     const auto scores = impl_->net->head->forward(tokens, off).masked_fill(val.logical_not(), -1e9);
