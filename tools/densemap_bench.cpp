@@ -1,13 +1,16 @@
-// densemap-bench: reproduces Table 2.4 (and Tables 2.2, 2.3) on any source. OctoMap's insertPointCloud
-// runs in the same invocation as the reference; every method's map is checked against its baseline.
+// densemap-bench: reproduces Table 2.4 (and Tables 2.2, 2.3) on any source. The reference is OctoMap's
+// insertPointCloud in a process of its own (densemap-octomap-reference, fed the scans as an OctoMap .graph),
+// run beside each method; every method's map is checked against its baseline.
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <sstream>
-
-#include <omp.h>
 
 #include <octomap/octomap.h>
 #include <spdlog/spdlog.h>
@@ -22,6 +25,7 @@
 #include "densemap/map/octree_map.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/retain_freed_memory.h"
+#include "quiet_stderr.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -44,36 +48,98 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-octomap::Pointcloud toOctomap(const std::vector<geometry::Vec3f>& pts) {
-  octomap::Pointcloud pc;
-  pc.reserve(pts.size());
-  for (const auto& p : pts) pc.push_back(p.x(), p.y(), p.z());
-  return pc;
+/// The scans as an OctoMap .graph in a temporary directory (removed with this object): world-frame clouds,
+/// each node's pose the sensor origin with no rotation, so OctoMap maps exactly the points densemap maps.
+class ScanGraphFile {
+ public:
+  explicit ScanGraphFile(const std::vector<cli::WorldScan>& scans, const std::string& keep_as) {
+    std::string pattern = (std::filesystem::temp_directory_path() / "densemap-bench-XXXXXX").string();
+    if (!mkdtemp(pattern.data()))
+      throw std::runtime_error("cannot create a temporary directory for the scans");
+    dir_ = pattern;
+    path_ = keep_as.empty() ? (dir_ / "scans.graph").string() : keep_as;
+    octomap::ScanGraph graph;
+    for (const auto& s : scans) {
+      auto cloud = std::make_unique<octomap::Pointcloud>();
+      cloud->reserve(s.points.size());
+      for (const auto& p : s.points) cloud->push_back(p.x(), p.y(), p.z());
+      // ScanGraph takes ownership of the cloud (it deletes its nodes' scans).
+      graph.addNode(cloud.release(), octomap::pose6d(s.origin.x(), s.origin.y(), s.origin.z(), 0, 0, 0));
+    }
+    std::ofstream out(path_, std::ios::binary);
+    {
+      const tools::QuietStderr quiet;
+      graph.writeBinary(out);
+    }
+    if (!out) throw std::runtime_error("cannot write the scans to " + path_);
+  }
+  ~ScanGraphFile() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+  ScanGraphFile(const ScanGraphFile&) = delete;
+  ScanGraphFile& operator=(const ScanGraphFile&) = delete;
+  const std::string& path() const { return path_; }
+  std::string scratch(const std::string& name) const { return (dir_ / name).string(); }
+
+ private:
+  std::filesystem::path dir_;
+  std::string path_;
+};
+
+std::string shellQuoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
 }
 
 struct OctomapRun {
-  std::unique_ptr<octomap::OcTree> tree;
+  std::unique_ptr<octomap::OcTree> tree;  ///< when asked for (the exactness reference)
   std::vector<double> scan_ms;
   double total_ms = 0.0;
+  std::size_t memory_bytes = 0;
 };
 
-OctomapRun runOctomap(const std::vector<cli::WorldScan>& scans, double res, double max_range) {
-  // OctoMap's computeUpdate, instantiated from its headers in this OpenMP translation unit, calls
-  // omp_set_num_threads(keyrays.size()), and the non-OpenMP Debian library sizes keyrays to 1: restore the
-  // thread count afterwards, or every later run would be single-threaded.
-  const int threads = omp_get_max_threads();
+/// One run of densemap-octomap-reference on the scans: a fresh process, so nothing of this one (OpenMP
+/// workers, allocator settings, caches and pages warmed by the previous method) touches OctoMap's time.
+OctomapRun runOctomap(const std::string& program, const ScanGraphFile& scans, double res, double max_range,
+                      bool want_tree) {
+  const std::string tree_path = scans.scratch("reference.ot");
+  std::string cmd = shellQuoted(program) + " --graph " + shellQuoted(scans.path()) + " --resolution " +
+                    std::to_string(res) + " --max-range " + std::to_string(max_range);
+  if (want_tree) cmd += " --write-tree " + shellQuoted(tree_path);
+  std::fflush(stdout);
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(cmd.c_str(), "r"), pclose);
+  if (!pipe) throw std::runtime_error("cannot run " + program);
+  std::string text;
+  char buf[4096];
+  while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe.get())) text.append(buf, n);
+  if (pclose(pipe.release()) != 0)
+    throw std::runtime_error(program + " failed (run it by hand: " + cmd + "); --octomap-reference names it");
+  const auto j = nlohmann::json::parse(text);
   OctomapRun r;
-  r.tree = map::OctreeMap::makeTree(res, {});
-  for (const auto& s : scans) {
-    const octomap::Pointcloud pc = toOctomap(s.points);  // conversion not timed
-    const auto t = Clock::now();
-    r.tree->insertPointCloud(pc, octomap::point3d(s.origin.x(), s.origin.y(), s.origin.z()), max_range, false,
-                             false);
-    r.scan_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t).count());
-    r.total_ms += r.scan_ms.back();
+  r.scan_ms = j.at("scan_ms").get<std::vector<double>>();
+  r.total_ms = j.at("total_ms").get<double>();
+  r.memory_bytes = j.at("memory_bytes").get<std::size_t>();
+  if (want_tree) {
+    std::unique_ptr<octomap::AbstractOcTree> t;
+    {
+      const tools::QuietStderr quiet;
+      t.reset(octomap::AbstractOcTree::read(tree_path));
+    }
+    auto* tree = dynamic_cast<octomap::OcTree*>(t.get());
+    if (!tree) throw std::runtime_error("cannot read back the reference map " + tree_path);
+    t.release();
+    r.tree.reset(tree);
   }
-  omp_set_num_threads(threads);
   return r;
+}
+
+std::string defaultReferenceProgram() {
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("densemap-octomap-reference")
+            : (self.parent_path() / "densemap-octomap-reference").string();
 }
 
 std::unique_ptr<map::OccupancyMap> makeMap(const std::string& backend,
@@ -166,6 +232,12 @@ int main(int argc, char** argv) {
   app.add_flag("--no-unnecessary", no_unnecessary,
                "skip the extra pass that counts unnecessary traversals (Table 2.3)");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
+  std::string reference_program = defaultReferenceProgram(), graph_out;
+  app.add_option("--octomap-reference", reference_program,
+                 "the OctoMap reference program (default: densemap-octomap-reference beside this one)")
+      ->capture_default_str();
+  app.add_option("--graph-out", graph_out,
+                 "also keep the scans as this OctoMap .graph (to run densemap-octomap-reference by hand)");
   auto logging_table = cli::loggingOptions(log_level);
   auto source_table = cli::sourceOptions(source);
   cli::addToApp(app, {&source_table, &logging_table});
@@ -201,6 +273,7 @@ int main(int argc, char** argv) {
     auto src = io::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     const auto scans = cli::loadScans(*src, range);
+    const ScanGraphFile graph(scans, graph_out);
     std::size_t points = 0;
     for (const auto& s : scans) points += s.points.size();
     const double n = static_cast<double>(scans.size());
@@ -223,17 +296,19 @@ int main(int argc, char** argv) {
       };
       std::map<std::pair<std::string, update::UpdateMethod>, Acc> acc;
       std::vector<double> octo_scan_ms;
+      std::size_t octo_memory = 0;
       for (int rep = 0; rep < repeat; ++rep) {
         for (const auto& backend : backend_list) {
           std::unique_ptr<map::OccupancyMap> baseline_map;
           for (auto m : method_list) {
-            // Each method run is paired with an OctoMap run just before it: both run alone with warm caches,
-            // and the pair is seconds apart, so drift of this machine's speed cancels in the ratio.
-            OctomapRun o = runOctomap(scans, res, max_range);
+            // Each method run is paired with an OctoMap run just before it (its own process): the pair is
+            // seconds apart, so drift of this machine's speed cancels in the ratio.
+            OctomapRun o = runOctomap(reference_program, graph, res, max_range, !reference);
             octo_ms.push_back(o.total_ms);
             if (!reference) {
               reference = std::move(o.tree);
               octo_scan_ms = o.scan_ms;
+              octo_memory = o.memory_bytes;
             }
             update::UpdateOptions opt;
             opt.method = m;
@@ -286,16 +361,19 @@ int main(int argc, char** argv) {
       }
       const double octo = median(octo_ms);
       if (json) {
-        nlohmann::json j = {
-            {"method", "octomap"},   {"backend", "octomap"}, {"semantics", "batch"},      {"resolution", res},
-            {"scans", scans.size()}, {"points", points},     {"fps", 1000.0 * n / octo},  {"proc_ms", 0.0},
-            {"update_ms", octo / n}, {"identical", true},    {"speedup_vs_octomap", 1.0}, {"threads", 1},
-            {"repeat", repeat}};
+        nlohmann::json j = {{"method", "octomap"},       {"backend", "octomap"},
+                            {"semantics", "batch"},      {"resolution", res},
+                            {"scans", scans.size()},     {"points", points},
+                            {"fps", 1000.0 * n / octo},  {"proc_ms", 0.0},
+                            {"update_ms", octo / n},     {"identical", true},
+                            {"speedup_vs_octomap", 1.0}, {"threads", 1},
+                            {"repeat", repeat},          {"memory_bytes", octo_memory},
+                            {"reference", "own process"}};
         if (realtime > 0) j["realtime_used"] = realtimeUsed(octo_scan_ms, realtime);
         std::printf("%s\n", j.dump().c_str());
       } else {
-        std::printf("\nresolution %.2f m: OctoMap insertPointCloud %.1f ms/scan (%.2f fps)%s\n", res,
-                    octo / n, 1000.0 * n / octo,
+        std::printf("\nresolution %.2f m: OctoMap insertPointCloud (own process) %.1f ms/scan (%.2f fps)%s\n",
+                    res, octo / n, 1000.0 * n / octo,
                     realtime > 0 ? (" realtime used " + std::to_string(realtimeUsed(octo_scan_ms, realtime)) +
                                     "/" + std::to_string(scans.size()))
                                        .c_str()
