@@ -151,6 +151,7 @@ struct MethodRun {
   std::unique_ptr<map::OccupancyMap> map;
   update::UpdateStats sum;
   std::vector<double> scan_ms;
+  std::string chosen;  ///< with `fastest`: scans per method it ran
 };
 
 MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string& backend, double res,
@@ -173,6 +174,7 @@ MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string&
     r.sum.generation_ms += st->generation_ms;
     r.sum.update_ms += st->update_ms;
   }
+  if (opt.method == update::UpdateMethod::kFastest) r.chosen = engine.chooser().summary();
   return r;
 }
 
@@ -215,7 +217,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--backend", backends, "grid, octree, or both comma separated")->capture_default_str();
   app.add_option("--method", methods,
-                 "all, or a comma list of baseline, superrays, culling, superrays+culling")
+                 "all (the four and fastest, the default), or a comma list of baseline, superrays, culling, "
+                 "superrays+culling, fastest")
       ->capture_default_str();
   app.add_option("--semantics", semantics, "batch or counting")
       ->capture_default_str()
@@ -236,6 +239,10 @@ int main(int argc, char** argv) {
   app.add_option("--octomap-reference", reference_program,
                  "the OctoMap reference program (default: densemap-octomap-reference beside this one)")
       ->capture_default_str();
+  bool no_octomap = false;
+  app.add_flag("--no-octomap", no_octomap,
+               "skip the OctoMap reference runs (no speed-ups; octree maps are checked against the baseline "
+               "method): for comparing the methods with each other");
   app.add_option("--graph-out", graph_out,
                  "also keep the scans as this OctoMap .graph (to run densemap-octomap-reference by hand)");
   auto logging_table = cli::loggingOptions(log_level);
@@ -251,12 +258,13 @@ int main(int argc, char** argv) {
     std::vector<update::UpdateMethod> method_list;
     if (methods == "all") {
       method_list.assign(std::begin(update::kAllMethods), std::end(update::kAllMethods));
+      method_list.push_back(update::UpdateMethod::kFastest);
     } else {
       for (const auto& m : splitList(methods)) {
         auto pm = update::parseMethod(m);
         if (!pm)
           throw std::invalid_argument("unknown method '" + m +
-                                      "' (baseline, superrays, culling, superrays+culling)");
+                                      "' (baseline, superrays, culling, superrays+culling, fastest)");
         method_list.push_back(*pm);
       }
     }
@@ -273,7 +281,8 @@ int main(int argc, char** argv) {
     auto src = io::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     const auto scans = cli::loadScans(*src, range);
-    const ScanGraphFile graph(scans, graph_out);
+    std::unique_ptr<ScanGraphFile> graph;
+    if (!no_octomap) graph = std::make_unique<ScanGraphFile>(scans, graph_out);
     std::size_t points = 0;
     for (const auto& s : scans) points += s.points.size();
     const double n = static_cast<double>(scans.size());
@@ -293,6 +302,7 @@ int main(int argc, char** argv) {
         std::vector<double> scan_ms;
         bool identical = true;
         std::string why;
+        std::vector<std::string> chosen;  ///< fastest: what it ran, per repetition
       };
       std::map<std::pair<std::string, update::UpdateMethod>, Acc> acc;
       std::vector<double> octo_scan_ms;
@@ -303,9 +313,10 @@ int main(int argc, char** argv) {
           for (auto m : method_list) {
             // Each method run is paired with an OctoMap run just before it (its own process): the pair is
             // seconds apart, so drift of this machine's speed cancels in the ratio.
-            OctomapRun o = runOctomap(reference_program, graph, res, max_range, !reference);
-            octo_ms.push_back(o.total_ms);
-            if (!reference) {
+            OctomapRun o;
+            if (graph) o = runOctomap(reference_program, *graph, res, max_range, !reference);
+            if (graph) octo_ms.push_back(o.total_ms);
+            if (graph && !reference) {
               reference = std::move(o.tree);
               octo_scan_ms = o.scan_ms;
               octo_memory = o.memory_bytes;
@@ -321,13 +332,14 @@ int main(int argc, char** argv) {
             a.total_ms.push_back(total);
             a.proc_ms.push_back(r.sum.generation_ms);
             a.update_ms.push_back(r.sum.update_ms);
-            a.ratio.push_back(o.total_ms / total);
+            if (graph) a.ratio.push_back(o.total_ms / total);
+            if (!r.chosen.empty()) a.chosen.push_back(r.chosen);
             if (rep > 0) continue;
             a.stats = r.sum;
             a.scan_ms = r.scan_ms;
             // The reference: OctoMap itself for octree + batch, else this backend's baseline method.
             std::string why;
-            if (backend == "octree" && sem == map::UpdateSemantics::kBatch) {
+            if (backend == "octree" && sem == map::UpdateSemantics::kBatch && reference) {
               a.identical =
                   map::identicalTrees(static_cast<map::OctreeMap&>(*r.map).tree(), *reference, &why);
             } else {
@@ -360,7 +372,14 @@ int main(int argc, char** argv) {
           }
       }
       const double octo = median(octo_ms);
-      if (json) {
+      if (!graph) {
+        if (!json) {
+          std::printf("\nresolution %.2f m (no OctoMap reference: --no-octomap)\n", res);
+          std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps",
+                      "proc ms", "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary",
+                      "identical", realtime > 0 ? "realtime" : "");
+        }
+      } else if (json) {
         nlohmann::json j = {{"method", "octomap"},       {"backend", "octomap"},
                             {"semantics", "batch"},      {"resolution", res},
                             {"scans", scans.size()},     {"points", points},
@@ -382,6 +401,15 @@ int main(int argc, char** argv) {
                     "proc ms", "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary",
                     "identical", realtime > 0 ? "realtime" : "");
       }
+      // The default (fastest) against the best of the four concrete methods, per backend (issue 24).
+      std::map<std::string, std::pair<update::UpdateMethod, double>> best_of_four;
+      for (const auto& backend : backend_list)
+        for (auto m : method_list) {
+          if (m == update::UpdateMethod::kFastest) continue;
+          const double t = median(acc[{backend, m}].total_ms);
+          auto it = best_of_four.find(backend);
+          if (it == best_of_four.end() || t < it->second.second) best_of_four[backend] = {m, t};
+        }
       for (const auto& backend : backend_list)
         for (auto m : method_list) {
           const Acc& a = acc[{backend, m}];
@@ -415,6 +443,11 @@ int main(int argc, char** argv) {
                 {"threads", used_threads},
                 {"repeat", repeat}};
             if (!no_unnecessary) j["unnecessary"] = a.stats.unnecessary;
+            if (!a.chosen.empty()) j["chosen"] = a.chosen;
+            if (m == update::UpdateMethod::kFastest && best_of_four.count(backend)) {
+              j["best_of_four"] = update::toString(best_of_four[backend].first);
+              j["time_vs_best_of_four"] = total / best_of_four[backend].second;
+            }
             if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
             std::printf("%s\n", j.dump().c_str());
           } else {
@@ -429,6 +462,11 @@ int main(int argc, char** argv) {
                     ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" + std::to_string(scans.size()))
                           .c_str()
                     : "");
+            if (!a.chosen.empty()) std::printf("          fastest ran: %s\n", a.chosen.back().c_str());
+            if (m == update::UpdateMethod::kFastest && best_of_four.count(backend))
+              std::printf("          fastest took %.2fx the time of the best of the four (%s)\n",
+                          total / best_of_four[backend].second,
+                          std::string(update::toString(best_of_four[backend].first)).c_str());
           }
         }
       bool all_identical = true;

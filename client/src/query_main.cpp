@@ -72,6 +72,8 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
                       {"latency_p50_ms", st.latency_p50_ms()},
                       {"latency_p99_ms", st.latency_p99_ms()}});
   }
+  nlohmann::json methods = nlohmann::json::object();
+  for (const auto& m : s.update_methods()) methods[m.method()] = m.scans();
   return {{"server_id", s.server_id()},
           {"uptime_s", s.uptime_s()},
           {"robots", robots},
@@ -107,7 +109,9 @@ json serverStatisticsJson(const msg::ServerStatistics& s) {
             {"robots_forgotten", s.window().robots_forgotten()},
             {"blocks_loaded_for_queries", s.window().blocks_loaded_for_queries()},
             {"query_load_failures", s.window().query_load_failures()},
-            {"dense_blocks_dropped", s.window().dense_blocks_dropped()}}}};
+            {"dense_blocks_dropped", s.window().dense_blocks_dropped()}}},
+          {"update_method", s.update_method()},
+          {"update_methods", methods}};
 }
 
 /// Fails with the reply's status and message when it is not OK.

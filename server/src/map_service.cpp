@@ -54,6 +54,7 @@ MapService::MapService(ServiceOptions options)
       *store_, options_.update,
       resolveUpdatePriority(options_.update_nice, options_.update_catch_up_ms, options_.update_late_nice),
       window_.get());
+  occupancy_stage_ = occupancy.get();  // owned by the pipeline from here on, as long as this service
   std::unique_ptr<DenseStage> dense;
   if (auto layer = dense::makeDenseLayer(options_.dense, options_.map.resolution)) {
     dense_store_ = std::make_unique<DenseStore>(std::move(layer));
@@ -438,6 +439,12 @@ std::optional<MapWindow::Stats> MapService::windowStats() const {
 
 ServiceStatistics MapService::statistics() const {
   ServiceStatistics s;
+  s.update_method = update::toString(options_.update.method);
+  if (occupancy_stage_ != nullptr) {
+    const auto scans = occupancy_stage_->methodScans();
+    for (std::size_t i = 0; i < scans.size(); ++i)
+      s.update_methods.emplace_back(update::toString(update::kAllMethods[i]), scans[i]);
+  }
   s.server_id = options_.server_id;
   s.stamp_ns = util::wallClockNs();
   s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();

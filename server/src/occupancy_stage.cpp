@@ -73,6 +73,7 @@ StageResult OccupancyStage::apply(ScanJob& job) {
   if (grid != nullptr)
     window_->afterScan(*grid, job.robot_id, job.scan.origin(), static_cast<double>(job.received_ns) * 1e-9,
                        publish_decay);
+  method_scans_[static_cast<std::size_t>(stats->method)].fetch_add(1, std::memory_order_relaxed);
   job.points_rejected += static_cast<std::uint32_t>(stats->rejected);
   job.map_version = version;
   job.in_map_ns = util::wallClockNs();
@@ -128,6 +129,12 @@ void OccupancyStage::applyChange(MapChange& change) {
     }
     r.map_version = store_.version();
   });
+}
+
+std::array<std::uint64_t, 4> OccupancyStage::methodScans() const {
+  std::array<std::uint64_t, 4> n{};
+  for (std::size_t i = 0; i < n.size(); ++i) n[i] = method_scans_[i].load(std::memory_order_relaxed);
+  return n;
 }
 
 }  // namespace densemap::server

@@ -30,6 +30,10 @@ std::string ServiceStatistics::summaryLine() const {
     stage_text += fmt::format("; {} p50 {:.2f} p99 {:.2f} ms", st.name, st.latency.p50_ms, st.latency.p99_ms);
     if (st.dropped > 0) stage_text += fmt::format(" ({} scans skipped: behind)", st.dropped);
   }
+  std::string methods;
+  for (const auto& [method, scans] : update_methods)
+    if (scans > 0) methods += fmt::format("{}{} {}", methods.empty() ? "" : ", ", method, scans);
+  if (!methods.empty()) stage_text += fmt::format(" (update method {}: {})", update_method, methods);
   return fmt::format(
              "{} robots: {} scans received, {} in map, {} dropped, {} rejected; publish-to-map p50 {:.1f} ms "
              "p99 {:.1f} ms; map {:.1f} MB; resident {:.0f} MB (heap {:.0f} MB in use, {:.0f} MB free in the "

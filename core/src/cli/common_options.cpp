@@ -100,11 +100,14 @@ OptionTable updateOptions(update::UpdateOptions& o) {
   OptionTable t("Update (Ch. 2)");
   t.addChoice(
       "method", o.method,
-      {{"baseline", update::UpdateMethod::kBaseline},
+      {{"fastest", update::UpdateMethod::kFastest},
+       {"baseline", update::UpdateMethod::kBaseline},
        {"superrays", update::UpdateMethod::kSuperRays},
        {"culling", update::UpdateMethod::kCullingRegion},
        {"superrays+culling", update::UpdateMethod::kSuperRaysCulling}},
-      "update method; all give the same map (super rays Sec. 2.3.1-2.3.4, culling region Sec. 2.3.5)");
+      "update method; all give the same map (super rays Sec. 2.3.1-2.3.4, culling region Sec. 2.3.5). "
+      "fastest: "
+      "per scan whichever of the four is measured fastest on the scans so far (cheap ones tried first)");
   t.addChoice("semantics", o.semantics,
               {{"batch", map::UpdateSemantics::kBatch}, {"counting", map::UpdateSemantics::kCounting}},
               "batch (OctoMap's insertPointCloud) or counting (Sec. 2.3.4)");

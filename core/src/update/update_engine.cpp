@@ -24,6 +24,8 @@ std::string_view toString(UpdateMethod m) {
       return "culling";
     case UpdateMethod::kSuperRaysCulling:
       return "superrays+culling";
+    case UpdateMethod::kFastest:
+      return "fastest";
   }
   return "?";
 }
@@ -31,11 +33,12 @@ std::string_view toString(UpdateMethod m) {
 std::optional<UpdateMethod> parseMethod(std::string_view s) {
   for (UpdateMethod m : kAllMethods)
     if (toString(m) == s) return m;
-  if (s == "default" || s == "ours") return UpdateMethod::kSuperRaysCulling;
+  if (s == "fastest" || s == "default") return UpdateMethod::kFastest;
+  if (s == "ours") return UpdateMethod::kSuperRaysCulling;
   return std::nullopt;
 }
 
-UpdateEngine::UpdateEngine(UpdateOptions options) : options_(options) {}
+UpdateEngine::UpdateEngine(UpdateOptions options) : options_(options), chooser_(options.chooser) {}
 
 namespace {
 using Clock = std::chrono::steady_clock;
@@ -116,10 +119,11 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.prepare_ms = msSince(t0);
   const auto tg = Clock::now();
 
-  const bool use_super =
-      options_.method == UpdateMethod::kSuperRays || options_.method == UpdateMethod::kSuperRaysCulling;
+  const UpdateMethod method = options_.method == UpdateMethod::kFastest ? chooser_.next() : options_.method;
+  st.method = method;
+  const bool use_super = method == UpdateMethod::kSuperRays || method == UpdateMethod::kSuperRaysCulling;
   const bool use_culling =
-      options_.method == UpdateMethod::kCullingRegion || options_.method == UpdateMethod::kSuperRaysCulling;
+      method == UpdateMethod::kCullingRegion || method == UpdateMethod::kSuperRaysCulling;
   std::vector<SuperRay>& rays = rays_;
   rays.clear();
   if (use_super) {
@@ -199,6 +203,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.traversed = tc.traversed;
   st.fallbacks = tc.fallbacks;
   st.unnecessary = tc.unnecessary;
+  // Applying the evidence is the same work whichever method made it (and may wait for readers' lock), so
+  // the choice compares the rest.
+  if (options_.method == UpdateMethod::kFastest)
+    chooser_.record(method, st.totalMs() - st.apply_ms, st.points);
   return st;
 }
 

@@ -253,6 +253,13 @@ msg::ServerStatistics toWire(const ServiceStatistics& s) {
     st.latency_max_ms(c.latency.max_ms);
     m.stages().push_back(std::move(st));
   }
+  m.update_method(s.update_method);
+  for (const auto& [method, scans] : s.update_methods) {
+    msg::UpdateMethodCount c;
+    c.method(method);
+    c.scans(scans);
+    m.update_methods().push_back(std::move(c));
+  }
   m.map_stats().backend(s.backend);
   m.map_stats().resolution(s.resolution);
   m.map_stats().map_version(s.map_version);

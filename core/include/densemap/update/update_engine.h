@@ -13,24 +13,17 @@
 #include "densemap/map/occupancy_map.h"
 #include "densemap/map/scan_evidence.h"
 #include "densemap/map/update_semantics.h"
+#include "densemap/update/method_chooser.h"
 #include "densemap/update/super_ray_generator.h"
+#include "densemap/update/update_method.h"
 
 namespace densemap::update {
 
-enum class UpdateMethod {
-  kBaseline,         ///< one forward 3D DDA per ray, OctoMap's cell sequence
-  kSuperRays,        ///< Sec. 2.3.1-2.3.4
-  kCullingRegion,    ///< Sec. 2.3.5: rays walked from the endpoint, stopping on entering the region
-  kSuperRaysCulling  ///< both (the default)
-};
-
-std::string_view toString(UpdateMethod m);
-std::optional<UpdateMethod> parseMethod(std::string_view s);
-inline constexpr UpdateMethod kAllMethods[] = {UpdateMethod::kBaseline, UpdateMethod::kSuperRays,
-                                               UpdateMethod::kCullingRegion, UpdateMethod::kSuperRaysCulling};
-
 struct UpdateOptions {
-  UpdateMethod method = UpdateMethod::kSuperRaysCulling;
+  /// kFastest (the default) measures the four and runs the fastest (update/method_chooser.h); a concrete
+  /// method forces it.
+  UpdateMethod method = UpdateMethod::kFastest;
+  MethodChooserOptions chooser{};
   map::UpdateSemantics semantics = map::UpdateSemantics::kBatch;
   /// Rays longer than this are cut there and give no occupied endpoint (OctoMap's maxrange); < 0: unlimited.
   double max_range = -1.0;
@@ -46,21 +39,22 @@ struct UpdateOptions {
 };
 
 struct UpdateStats {
-  std::uint64_t points = 0;          ///< points given
-  std::uint64_t rejected = 0;        ///< non-finite points or points outside the key range
-  std::uint64_t rays = 0;            ///< traversals started (super rays + single rays)
-  std::uint64_t super_rays = 0;      ///< rays of weight > 1
-  std::uint64_t grouped_points = 0;  ///< points represented by those super rays
-  std::uint64_t traversed = 0;       ///< cells visited by all traversals
-  std::uint64_t unnecessary = 0;     ///< visits of already fully free cells (when counted)
-  std::uint64_t region_cells = 0;    ///< culling region size
-  std::uint64_t closed_cells = 0;    ///< in-scan closed region size (batch semantics, culling methods)
-  std::uint64_t fallbacks = 0;       ///< backward walks finished forward because of a rounding tie
-  double prepare_ms = 0.0;           ///< validation, range cuts, bounding box (part of update_ms)
-  double trace_ms = 0.0;             ///< ray traversals (part of update_ms)
-  double apply_ms = 0.0;             ///< endpoints + applying the evidence to the map (part of update_ms)
-  double generation_ms = 0.0;        ///< super rays + culling region
-  double update_ms = 0.0;            ///< traversals + applying the evidence to the map
+  UpdateMethod method = UpdateMethod::kBaseline;  ///< the method that ran (kFastest's choice)
+  std::uint64_t points = 0;                       ///< points given
+  std::uint64_t rejected = 0;                     ///< non-finite points or points outside the key range
+  std::uint64_t rays = 0;                         ///< traversals started (super rays + single rays)
+  std::uint64_t super_rays = 0;                   ///< rays of weight > 1
+  std::uint64_t grouped_points = 0;               ///< points represented by those super rays
+  std::uint64_t traversed = 0;                    ///< cells visited by all traversals
+  std::uint64_t unnecessary = 0;                  ///< visits of already fully free cells (when counted)
+  std::uint64_t region_cells = 0;                 ///< culling region size
+  std::uint64_t closed_cells = 0;  ///< in-scan closed region size (batch semantics, culling methods)
+  std::uint64_t fallbacks = 0;     ///< backward walks finished forward because of a rounding tie
+  double prepare_ms = 0.0;         ///< validation, range cuts, bounding box (part of update_ms)
+  double trace_ms = 0.0;           ///< ray traversals (part of update_ms)
+  double apply_ms = 0.0;           ///< endpoints + applying the evidence to the map (part of update_ms)
+  double generation_ms = 0.0;      ///< super rays + culling region
+  double update_ms = 0.0;          ///< traversals + applying the evidence to the map
   double totalMs() const { return generation_ms + update_ms; }
 };
 
@@ -80,9 +74,12 @@ class UpdateEngine {
 
   const UpdateOptions& options() const { return options_; }
   void setOptions(const UpdateOptions& o) { options_ = o; }
+  /// With kFastest: what was measured and chosen so far.
+  const MethodChooser& chooser() const { return chooser_; }
 
  private:
   UpdateOptions options_;
+  MethodChooser chooser_;
   map::ScanEvidence evidence_;
   SuperRayGenerator generator_;
   // Per-scan buffers kept between scans (large, so reallocating them would page-fault every scan).

@@ -107,6 +107,7 @@ class MapService {
   std::chrono::steady_clock::time_point started_;
   std::unique_ptr<MapStore> store_;
   std::unique_ptr<MapWindow> window_;
+  const OccupancyStage* occupancy_stage_ = nullptr;  // the pipeline's (method counts for the statistics)
   const DenseStage* dense_stage_ = nullptr;  // the pipeline's, when there is a dense layer  // before the
                                              // pipeline, whose occupancy stage uses it
   std::unique_ptr<DenseStore> dense_store_;

@@ -3,6 +3,10 @@
 // map's only writer: commands (clear box, reset, load, a save's snapshot) run here too, between scans.
 #pragma once
 
+#include <array>
+#include <atomic>
+#include <cstdint>
+
 #include "densemap/server/map_stores.h"
 #include "densemap/server/map_window.h"
 #include "densemap/server/pipeline_stage.h"
@@ -26,6 +30,8 @@ class OccupancyStage : public PipelineStage {
   void applyChange(MapChange& change) override;
   /// process() without the priority handling: a journal replay at start-up, on the caller's thread.
   StageResult replay(ScanJob& job);
+  /// Scans run with each concrete method (update::kAllMethods' order); any thread may ask.
+  std::array<std::uint64_t, 4> methodScans() const;
 
  private:
   StageResult apply(ScanJob& job);
@@ -34,6 +40,7 @@ class OccupancyStage : public PipelineStage {
   update::UpdateEngine engine_;
   UpdatePriority priority_;
   MapWindow* window_;
+  std::array<std::atomic<std::uint64_t>, 4> method_scans_{};
 };
 
 }  // namespace densemap::server

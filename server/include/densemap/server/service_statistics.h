@@ -53,6 +53,9 @@ struct ServiceStatistics {
   std::uint64_t heap_free_bytes = 0;    ///< freed, held by the allocator (util::HeapUsage)
   DurabilityStatistics durability;
   std::optional<MapWindowStats> window;  ///< with --window-radius or --max-map-mb
+  std::string update_method;             ///< --method (fastest, or the forced one)
+  /// Scans the exact update ran with each method this run, in update::kAllMethods' order.
+  std::vector<std::pair<std::string, std::uint64_t>> update_methods;
 
   /// Totals over the robots.
   RobotCounters totals() const;

@@ -1,0 +1,60 @@
+// Which of the four exact update methods to run for the next scan (issue 24). They give the same map
+// (Ch. 2; tests/unit/test_exactness.cpp), so the choice changes only the time, and the time depends on the
+// data: outdoors at 0.2 m a super ray carries ~1.04 points and costs more than it saves (Table 2.2 gives
+// 1.6 points), while dense indoor scans, coarse voxels and densified scans group many points per ray.
+// A scan's cost is known only after running it, so the choice is measured rather than predicted: the cheap
+// methods (baseline, culling) are tried first, the super-ray ones after `probe_after` scans, each loser
+// again after an interval that doubles every time it loses (so a method that loses costs ever less), and
+// the method with the lowest smoothed time per point runs the other scans.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "densemap/update/update_method.h"
+
+namespace densemap::update {
+
+struct MethodChooserOptions {
+  std::uint64_t probe_after = 20;     ///< scans before the super-ray methods are first tried
+  std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries (doubles per loss)
+  std::uint64_t max_interval = 640;   ///< the doubling stops here
+  double smoothing = 0.2;             ///< weight of the newest time in the running method's average
+  double probe_weight = 0.5;          ///< the same for a method tried again after losing
+};
+
+class MethodChooser {
+ public:
+  explicit MethodChooser(MethodChooserOptions options = {}) : options_(options) {}
+
+  /// The method for the next scan.
+  UpdateMethod next();
+  /// The time the scan took with `method` (generation + update) and its point count.
+  void record(UpdateMethod method, double ms, std::uint64_t points);
+
+  /// The method currently believed fastest (baseline before anything is measured).
+  UpdateMethod best() const;
+  /// Scans run with each method so far, and each one's smoothed microseconds per point (0: not tried).
+  std::uint64_t scans(UpdateMethod m) const { return slot(m).scans; }
+  double microsecondsPerPoint(UpdateMethod m) const { return slot(m).us_per_point; }
+  /// "culling 37, baseline 2, superrays 1, superrays+culling 1" (most used first).
+  std::string summary() const;
+
+ private:
+  struct Slot {
+    std::uint64_t scans = 0;
+    double us_per_point = 0.0;
+    std::uint64_t due = 0;  ///< scan number of its next try
+    std::uint64_t interval = 0;
+  };
+  Slot& slot(UpdateMethod m) { return slots_[static_cast<std::size_t>(m)]; }
+  const Slot& slot(UpdateMethod m) const { return slots_[static_cast<std::size_t>(m)]; }
+
+  MethodChooserOptions options_;
+  std::array<Slot, 4> slots_{};
+  std::uint64_t scan_ = 0;
+  bool started_ = false;
+};
+
+}  // namespace densemap::update
