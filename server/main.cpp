@@ -12,6 +12,7 @@
 #include "densemap/server/dds_edge/dds_edge.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/map_service.h"
+#include "densemap/server/openmp_idle_spin.h"
 #include "densemap/server/ros2_edge/octomap_params.h"
 #include "densemap/server/ros2_edge/ros2_edge.h"
 #include "densemap/util/retain_freed_memory.h"
@@ -35,6 +36,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   cli::setupLogging(config.log_level);
+  // Before any thread starts: this may execute the server again with the setting in its environment.
+  server::applyOpenmpIdleSpin(config.service.update_idle_spin, argv);
   if (!config.ros2.params_file.empty()) {
     // octomap_server's parameters: they replace the defaults and the --config file; flags still win.
     try {

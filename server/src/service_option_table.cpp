@@ -87,6 +87,10 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         .range(1, 100000);
     t.add("max-points", o.limits.max_points, "larger scans are rejected").range(1, 1e8);
     t.add("update-threads", o.update_threads, "threads of the map update (0: all cores)").range(0, 1024);
+    t.add("update-idle-spin", o.update_idle_spin,
+          "times an idle OpenMP worker of the update spins before it sleeps (GOMP_SPINCOUNT; -1: libgomp's "
+          "default); spinning idle workers take CPU from the other robots' scans")
+        .range(-1, 2e9);
     t.add("update-nice", o.update_nice,
           "nice value of the map update while scans are on time (-1: 19 if the server may raise it back "
           "when a scan is late, else 0)")

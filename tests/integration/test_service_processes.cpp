@@ -5,8 +5,10 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <thread>
@@ -89,6 +91,56 @@ TEST(ServiceProcesses, ReplayQueryAndCleanShutdownThatSavesTheMap) {
     leaves += side * side * side;
   }
   EXPECT_EQ(leaves, known);
+  std::filesystem::remove_all(dir);
+}
+
+/// The server's environment as the kernel shows it (after any re-execution).
+std::string environmentOf(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/environ", std::ios::binary);
+  std::string env((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (char& c : env)
+    if (c == '\0') c = '\n';
+  return "\n" + env;
+}
+
+/// Stops the server with SIGTERM; its exit status, or -1 if it did not exit within 30 s.
+int stopServer(pid_t server) {
+  if (kill(server, SIGTERM) != 0) return -1;
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(server, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// libgomp reads its idle-worker spin count before main, so the server executes itself again with
+// GOMP_SPINCOUNT set (same pid) and then serves as usual; -1 leaves the environment alone.
+TEST(ServiceProcesses, IdleOpenmpWorkersSpinAsConfigured) {
+  if (std::getenv("GOMP_SPINCOUNT") != nullptr || std::getenv("OMP_WAIT_POLICY") != nullptr)
+    GTEST_SKIP() << "GOMP_SPINCOUNT or OMP_WAIT_POLICY is set in this environment; it would win";
+  const auto dir = std::filesystem::temp_directory_path() / "densemap_test_231";
+  std::filesystem::remove_all(dir);
+  for (const int spin : {1234, -1}) {
+    const pid_t server =
+        spawnProcess({DENSEMAP_SERVER_BINARY, "--domain", "231", "--loopback", "--update-idle-spin",
+                      std::to_string(spin), "--data-dir", (dir / ("data" + std::to_string(spin))).string()});
+    ASSERT_GT(server, 0);
+    // Mapping still works in the re-executed process.
+    const auto [replay_rc, replay_out] =
+        run(std::string(DENSEMAP_REPLAY_BINARY) +
+            " --domain 231 --loopback --source sim:scans=2,beams=16,columns=256");
+    EXPECT_EQ(replay_rc, 0) << replay_out;
+    const std::string env = environmentOf(server);
+    if (spin >= 0) {
+      EXPECT_NE(env.find("\nGOMP_SPINCOUNT=" + std::to_string(spin) + "\n"), std::string::npos)
+          << "the server did not put --update-idle-spin into its environment";
+    } else {
+      EXPECT_EQ(env.find("\nGOMP_SPINCOUNT="), std::string::npos) << "-1 must leave libgomp's default";
+    }
+    std::ifstream comm("/proc/" + std::to_string(server) + "/comm");
+    std::string name;
+    std::getline(comm, name);
+    EXPECT_EQ(name, "densemap-server") << "the re-executed server must keep its name (pgrep, top)";
+    EXPECT_EQ(stopServer(server), 0);
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -30,6 +30,10 @@ struct ServiceOptions {
   DensifyOptions densify{};  ///< ILN densify before the occupancy update (off by default)
   /// Threads of the map update (OpenMP); 0 = all cores.
   int update_threads = 0;
+  /// Times an idle OpenMP worker spins before it sleeps (GOMP_SPINCOUNT; -1: libgomp's default, ~300,000
+  /// spins, about a millisecond here). libgomp reads it before main, so the server re-executes itself once
+  /// to apply it (openmp_idle_spin.h); OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment win.
+  int update_idle_spin = 0;
   ScanLimits limits{};
   QueryLimits queries{};
   /// Nice value of the map update's threads while scans are on time (0..19; -1 = auto: 19 if this
