@@ -169,6 +169,8 @@ MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string&
     r.sum.grouped_points += st->grouped_points;
     r.sum.traversed += st->traversed;
     r.sum.unnecessary += st->unnecessary;
+    r.sum.updated_cells += st->updated_cells;
+    r.sum.changed_cells += st->changed_cells;
     r.sum.region_cells += st->region_cells;
     r.sum.fallbacks += st->fallbacks;
     r.sum.generation_ms += st->generation_ms;
@@ -233,7 +235,8 @@ int main(int argc, char** argv) {
                  "also simulate scans arriving at this rate (Hz), dropping those arriving while busy");
   app.add_flag("--json", json, "one JSON object per line instead of a table");
   app.add_flag("--no-unnecessary", no_unnecessary,
-               "skip the extra pass that counts unnecessary traversals (Table 2.3)");
+               "skip the extra untimed pass that counts unnecessary traversals (Table 2.3) and the distinct "
+               "cells the scans change");
   app.add_option("--threads", threads, "worker threads (0 = all cores)")->capture_default_str();
   std::string reference_program = defaultReferenceProgram(), graph_out;
   app.add_option("--octomap-reference", reference_program,
@@ -368,16 +371,21 @@ int main(int argc, char** argv) {
             opt.max_range = max_range;
             opt.super_rays.threshold = threshold;
             opt.count_unnecessary = true;
-            acc[{backend, m}].stats.unnecessary = runMethod(scans, backend, res, opt).sum.unnecessary;
+            opt.count_cells = true;
+            const update::UpdateStats counted = runMethod(scans, backend, res, opt).sum;
+            update::UpdateStats& st = acc[{backend, m}].stats;
+            st.unnecessary = counted.unnecessary;
+            st.updated_cells = counted.updated_cells;
+            st.changed_cells = counted.changed_cells;
           }
       }
       const double octo = median(octo_ms);
       if (!graph) {
         if (!json) {
           std::printf("\nresolution %.2f m (no OctoMap reference: --no-octomap)\n", res);
-          std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps",
-                      "proc ms", "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary",
-                      "identical", realtime > 0 ? "realtime" : "");
+          std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %11s %9s %9s %8s %12s %9s %s\n", "backend",
+                      "method", "fps", "proc ms", "update ms", "speedup", "traversed", "changed", "trav/chg",
+                      "rays", "pts/ray", "unnecessary", "identical", realtime > 0 ? "realtime" : "");
         }
       } else if (json) {
         nlohmann::json j = {{"method", "octomap"},       {"backend", "octomap"},
@@ -397,9 +405,9 @@ int main(int argc, char** argv) {
                                     "/" + std::to_string(scans.size()))
                                        .c_str()
                                  : "");
-        std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %9s %8s %12s %9s %s\n", "backend", "method", "fps",
-                    "proc ms", "update ms", "speedup", "traversed", "rays", "pts/ray", "unnecessary",
-                    "identical", realtime > 0 ? "realtime" : "");
+        std::printf("  %-7s %-18s %8s %9s %10s %8s %12s %11s %9s %9s %8s %12s %9s %s\n", "backend", "method",
+                    "fps", "proc ms", "update ms", "speedup", "traversed", "changed", "trav/chg", "rays",
+                    "pts/ray", "unnecessary", "identical", realtime > 0 ? "realtime" : "");
       }
       // The default (fastest) against the best of the four concrete methods, per backend (issue 24).
       std::map<std::string, std::pair<update::UpdateMethod, double>> best_of_four;
@@ -416,6 +424,10 @@ int main(int argc, char** argv) {
           const double total = median(a.total_ms);
           const double ppr =
               a.stats.rays ? static_cast<double>(a.stats.points) / static_cast<double>(a.stats.rays) : 0.0;
+          // Cells walked per distinct cell the scans changed: 1 is the limit for any exact method (issue 24).
+          const double per_cell = a.stats.changed_cells ? static_cast<double>(a.stats.traversed) /
+                                                              static_cast<double>(a.stats.changed_cells)
+                                                        : 0.0;
           if (!a.identical)
             spdlog::error("{} {} map differs from its reference: {}", backend, update::toString(m), a.why);
           if (json) {
@@ -442,7 +454,12 @@ int main(int argc, char** argv) {
                 {"octomap_ms", octo / n},
                 {"threads", used_threads},
                 {"repeat", repeat}};
-            if (!no_unnecessary) j["unnecessary"] = a.stats.unnecessary;
+            if (!no_unnecessary) {
+              j["unnecessary"] = a.stats.unnecessary;
+              j["updated_cells"] = a.stats.updated_cells;
+              j["changed_cells"] = a.stats.changed_cells;
+              j["traversed_per_changed_cell"] = per_cell;
+            }
             if (!a.chosen.empty()) j["chosen"] = a.chosen;
             if (m == update::UpdateMethod::kFastest && best_of_four.count(backend)) {
               j["best_of_four"] = update::toString(best_of_four[backend].first);
@@ -451,17 +468,19 @@ int main(int argc, char** argv) {
             if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
             std::printf("%s\n", j.dump().c_str());
           } else {
-            std::printf(
-                "  %-7s %-18s %8.2f %9.1f %10.1f %7.2fx %12llu %9llu %8.2f %12s %9s %s\n", backend.c_str(),
-                std::string(update::toString(m)).c_str(), 1000.0 * n / total, median(a.proc_ms) / n,
-                median(a.update_ms) / n, median(a.ratio), static_cast<unsigned long long>(a.stats.traversed),
-                static_cast<unsigned long long>(a.stats.rays), ppr,
-                no_unnecessary ? "-" : std::to_string(a.stats.unnecessary).c_str(),
-                a.identical ? "yes" : "NO",
-                realtime > 0
-                    ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" + std::to_string(scans.size()))
-                          .c_str()
-                    : "");
+            std::printf("  %-7s %-18s %8.2f %9.1f %10.1f %7.2fx %12llu %11s %9s %9llu %8.2f %12s %9s %s\n",
+                        backend.c_str(), std::string(update::toString(m)).c_str(), 1000.0 * n / total,
+                        median(a.proc_ms) / n, median(a.update_ms) / n, median(a.ratio),
+                        static_cast<unsigned long long>(a.stats.traversed),
+                        no_unnecessary ? "-" : std::to_string(a.stats.changed_cells).c_str(),
+                        no_unnecessary ? "-" : fmt::format("{:.2f}", per_cell).c_str(),
+                        static_cast<unsigned long long>(a.stats.rays), ppr,
+                        no_unnecessary ? "-" : std::to_string(a.stats.unnecessary).c_str(),
+                        a.identical ? "yes" : "NO",
+                        realtime > 0 ? (std::to_string(realtimeUsed(a.scan_ms, realtime)) + "/" +
+                                        std::to_string(scans.size()))
+                                           .c_str()
+                                     : "");
             if (!a.chosen.empty()) std::printf("          fastest ran: %s\n", a.chosen.back().c_str());
             if (m == update::UpdateMethod::kFastest && best_of_four.count(backend))
               std::printf("          fastest took %.2fx the time of the best of the four (%s)\n",

@@ -193,13 +193,36 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   }
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.
   if (!counting) ev.resolveOccupiedWins();
+  double counting_ms = 0.0;
+  if (options_.count_cells) {
+    const auto tc0 = Clock::now();
+    cell_keys_.clear();
+    ev.forEachBlock([&](const map::EvidenceBlock& b) {
+      b.forEachEvidenceVoxel([&](int i) { cell_keys_.push_back(b.voxelKey(i)); });
+    });
+    ev.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t, std::uint32_t) { cell_keys_.push_back(k); });
+    cell_before_.resize(cell_keys_.size());
+    map.logOddsMany(cell_keys_, cell_before_);
+    counting_ms = msSince(tc0);
+  }
   if (wrap) {
     map.applyPublished(ev, wrap);
   } else {
     map.apply(ev);
   }
-  st.apply_ms = msSince(ta);
-  st.update_ms = st.prepare_ms + msSince(t1);
+  if (options_.count_cells) {
+    const auto tc0 = Clock::now();
+    std::vector<float> after(cell_keys_.size());
+    map.logOddsMany(cell_keys_, after);
+    st.updated_cells = cell_keys_.size();
+    for (std::size_t i = 0; i < after.size(); ++i) {
+      const float a = after[i], b = cell_before_[i];
+      st.changed_cells += (a != b && !(std::isnan(a) && std::isnan(b))) ? 1 : 0;
+    }
+    counting_ms += msSince(tc0);
+  }
+  st.apply_ms = msSince(ta) - counting_ms;
+  st.update_ms = st.prepare_ms + msSince(t1) - counting_ms;
   st.traversed = tc.traversed;
   st.fallbacks = tc.fallbacks;
   st.unnecessary = tc.unnecessary;

@@ -36,6 +36,9 @@ struct UpdateOptions {
   std::size_t closure_sample_every = 8;
   /// Count traversals of cells that were already fully free (Table 2.3). Costs a map lookup per cell.
   bool count_unnecessary = false;
+  /// Count the distinct cells the scan gives evidence and those whose value it changes
+  /// (UpdateStats::updated_cells, changed_cells). Costs two map lookups per cell; not in the times.
+  bool count_cells = false;
 };
 
 struct UpdateStats {
@@ -47,7 +50,12 @@ struct UpdateStats {
   std::uint64_t grouped_points = 0;               ///< points represented by those super rays
   std::uint64_t traversed = 0;                    ///< cells visited by all traversals
   std::uint64_t unnecessary = 0;                  ///< visits of already fully free cells (when counted)
-  std::uint64_t region_cells = 0;                 ///< culling region size
+  /// Distinct cells given evidence (when counted; the culling methods leave out fully free cells).
+  std::uint64_t updated_cells = 0;
+  /// Distinct cells whose value the scan changed (when counted): the same for every exact method, and the
+  /// floor of its work; traversed / changed_cells is the walks' cost per useful cell (issue 24).
+  std::uint64_t changed_cells = 0;
+  std::uint64_t region_cells = 0;  ///< culling region size
   std::uint64_t closed_cells = 0;  ///< in-scan closed region size (batch semantics, culling methods)
   std::uint64_t fallbacks = 0;     ///< backward walks finished forward because of a rounding tie
   double prepare_ms = 0.0;         ///< validation, range cuts, bounding box (part of update_ms)
@@ -86,6 +94,8 @@ class UpdateEngine {
   std::vector<geometry::Vec3f> ends_, cut_ends_, clipped_;
   std::vector<std::uint8_t> kind_;  // per point: 0 rejected, 1 ray with endpoint, 2 ray cut at max range
   std::vector<geometry::VoxelKey> keys_, end_keys_;  // per point / per endpoint: the endpoint's cell
+  std::vector<geometry::VoxelKey> cell_keys_;        // count_cells: the cells with evidence
+  std::vector<float> cell_before_;                   // and their log-odds before the scan
   std::vector<SuperRay> rays_;
 };
 
