@@ -3,7 +3,6 @@
 #include <signal.h>
 #include <sys/wait.h>
 
-#include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +16,7 @@
 #include <octomap/OcTree.h>
 #include <nlohmann/json.hpp>
 
+#include "run_command.h"
 #include "spawn_process.h"
 
 namespace densemap::test {
@@ -26,13 +26,8 @@ using namespace std::chrono_literals;
 
 /// Runs a command, returns its exit status and standard output.
 std::pair<int, std::string> run(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
-  if (pipe == nullptr) return {-1, out};
-  std::array<char, 4096> buf;
-  while (std::fgets(buf.data(), buf.size(), pipe) != nullptr) out += buf.data();
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  const CommandResult r = runCommand(command);
+  return {r.exitCode(), r.output};
 }
 
 TEST(ServiceProcesses, EveryToolHasHelp) {

@@ -1,8 +1,6 @@
 // densemap-bench's OctoMap reference in its own process (issue 24): the benchmark runs
 // densemap-octomap-reference, its octree maps equal the map that process builds, and the reference program
 // refuses corrupt or foreign input with a message instead of crashing.
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -13,15 +11,15 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "run_command.h"
+
 namespace {
 
 std::string run(const std::string& command, int& status) {
-  std::string out;
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buf;
-  while (pipe != nullptr && std::fgets(buf.data(), buf.size(), pipe) != nullptr) out += buf.data();
-  status = pipe != nullptr ? pclose(pipe) : -1;
-  return out;
+  const densemap::test::CommandResult r =
+      densemap::test::runCommand(command, densemap::test::Stderr::kCapture);
+  status = r.wait_status;
+  return r.output;
 }
 
 std::filesystem::path scratch(const std::string& name) {

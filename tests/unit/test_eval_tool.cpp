@@ -1,24 +1,20 @@
 // densemap-eval as a user runs it, on the built-in simulator (no data needed): one JSON object per method
 // with the documented fields, sensible scores, and the ROC files.
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "run_command.h"
 #include "test_data.h"
 
 namespace {
 
 std::string run(const std::string& command, int& status) {
-  std::string out;
-  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
-  std::array<char, 4096> buf;
-  while (pipe != nullptr && std::fgets(buf.data(), buf.size(), pipe) != nullptr) out += buf.data();
-  status = pipe != nullptr ? pclose(pipe) : -1;
-  return out;
+  const densemap::test::CommandResult r = densemap::test::runCommand(command);
+  status = r.wait_status;
+  return r.output;
 }
 
 TEST(EvalTool, JsonPerMethodRocCsvAndPng) {

@@ -22,7 +22,7 @@ struct OpenmpIdleSpinPlan {
 OpenmpIdleSpinPlan planOpenmpIdleSpin(int configured, const char* env_wait_policy,
                                       const char* env_spin_count);
 
-/// Applies the plan for `configured` to this process: may replace it (execv of /proc/self/exe with the same
+/// Applies the plan for `configured` to this process: may replace it (execv of its own program file, same
 /// arguments and pid) and then does not return. Call before any thread starts. When the re-execution
 /// fails it logs why and returns, with libgomp's default in force.
 void applyOpenmpIdleSpin(int configured, char** argv);

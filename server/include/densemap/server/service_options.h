@@ -31,8 +31,9 @@ struct ServiceOptions {
   /// Threads of the map update (OpenMP); 0 = all cores.
   int update_threads = 0;
   /// Times an idle OpenMP worker spins before it sleeps (GOMP_SPINCOUNT; -1: libgomp's default, ~300,000
-  /// spins, about a millisecond here). libgomp reads it before main, so the server re-executes itself once
-  /// to apply it (openmp_idle_spin.h); OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment win.
+  /// spins; 13% of the server's samples at 5 robots, docs/BENCHMARKS.md). libgomp reads it before main, so
+  /// the server re-executes itself once to apply it (openmp_idle_spin.h); OMP_WAIT_POLICY or GOMP_SPINCOUNT
+  /// in the environment win.
   int update_idle_spin = 0;
   ScanLimits limits{};
   QueryLimits queries{};
