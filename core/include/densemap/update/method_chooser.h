@@ -3,7 +3,8 @@
 // data: outdoors at 0.2 m a super ray carries ~1.04 points and costs more than it saves (Table 2.2 gives
 // 1.6 points), while dense indoor scans, coarse voxels and densified scans group many points per ray.
 // A scan's cost is known only after running it, so the choice is measured rather than predicted: the cheap
-// methods (baseline, culling) are tried first, the super-ray ones after `probe_after` scans, each loser
+// methods (baseline, culling) are tried first, twice each (a run's first scan is a cold one), the super-ray
+// ones after `probe_after` scans, each loser
 // again after an interval that doubles every time it loses (so a method that loses costs ever less), and
 // the method with the lowest smoothed time per point runs the other scans.
 #pragma once
