@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 namespace densemap::cli {
@@ -57,6 +58,9 @@ std::vector<WorldScan> loadScans(const io::ScanSource& source, const ScanRange& 
 }
 
 void setupLogging(const std::string& level) {
+  // Logs go to stderr: stdout is the programs' output (--json, tables), which scripts parse; a warning
+  // there broke a test's JSON (CI at 7a9d9a5).
+  if (!spdlog::get("densemap")) spdlog::set_default_logger(spdlog::stderr_color_mt("densemap"));
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   spdlog::set_level(spdlog::level::from_str(level));
 }

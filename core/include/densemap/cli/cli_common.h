@@ -30,7 +30,7 @@ struct WorldScan {
 /// Reads the range from the source, logging progress; throws io::SourceError.
 std::vector<WorldScan> loadScans(const io::ScanSource& source, const ScanRange& range);
 
-/// Sets spdlog's level ("info", "debug", ...) and pattern for tools.
+/// Sets spdlog's level ("info", "debug", ...) and pattern for tools, and sends the log to stderr.
 void setupLogging(const std::string& level);
 
 /// Sets the number of worker threads (0 = all cores); returns the count in use.
