@@ -30,9 +30,18 @@ class ScanPublisher::Listener : public dds::DataReaderListener {
   const Robot& robot_;
 };
 
-ScanPublisher::ScanPublisher(msg::DdsNode& node, const std::vector<std::string>& robot_ids)
-    : node_(node), statistics_(node) {
-  for (const std::string& id : robot_ids) robot(id);
+ScanPublisher::ScanPublisher(msg::DdsNode& node, const std::vector<std::string>& robot_ids) : node_(node) {
+  // The robots' topics first, so that an identity refused a robot id throws before any reader exists.
+  // Fast DDS 2.9 can crash (EDP::pairing_remote_writer_with_local_reader_after_security) when a secure
+  // participant deletes a reader whose key exchange with a remote writer is still in flight; a statistics
+  // reader made and at once deleted here was that reader (Security.ARobotReadsOnlyItsOwnAcks..., CI).
+  try {
+    for (const std::string& id : robot_ids) robot(id);
+    statistics_ = std::make_unique<StatisticsSubscriber>(node_);
+  } catch (...) {
+    removeRobots();  // no destructor runs for a constructor that throws
+    throw;
+  }
 }
 
 std::unique_ptr<ScanPublisher::Robot> ScanPublisher::makeRobot(const std::string& robot_id) {
@@ -135,6 +144,11 @@ std::optional<std::uint64_t> lastDurableSeq(const msg::RobotProgress& p, const s
 }
 
 ScanPublisher::~ScanPublisher() {
+  statistics_.reset();
+  removeRobots();
+}
+
+void ScanPublisher::removeRobots() {
   // Stop callbacks before the listeners go away.
   std::lock_guard lock(robots_mutex_);
   for (auto& [id, r] : robots_) {
@@ -142,6 +156,7 @@ ScanPublisher::~ScanPublisher() {
     node_.remove(r->progress_reader);
     node_.remove(r->writer);
   }
+  robots_.clear();
 }
 
 bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
@@ -282,12 +297,12 @@ std::vector<double> ScanPublisher::latenciesMs(const std::set<std::string>& robo
   return out;
 }
 
-std::optional<msg::ServerStatistics> ScanPublisher::lastStatistics() const { return statistics_.last(); }
+std::optional<msg::ServerStatistics> ScanPublisher::lastStatistics() const { return statistics_->last(); }
 
 std::optional<msg::ServerStatistics> ScanPublisher::waitForStatistics(const std::set<std::string>& robots,
                                                                       std::uint64_t expected,
                                                                       std::chrono::milliseconds timeout) {
-  return statistics_.waitUntil(
+  return statistics_->waitUntil(
       [&](const msg::ServerStatistics& s) {
         const RobotTotals t = totalsFor(s, robots);
         return t.processed + t.dropped + t.rejected >= expected;

@@ -238,6 +238,31 @@ TEST(Security, ARobotReadsOnlyItsOwnAcksAndSendsOnlyAsItself) {
   EXPECT_EQ(stats.totals().rejected, 1u);
 }
 
+// A program may try a robot id its identity does not hold, catch the refusal and go on. The refusal comes
+// before any reader is made: Fast DDS 2.9 crashed
+// (EDP::pairing_remote_writer_with_local_reader_after_security) when a statistics reader, made and at once
+// deleted by each refused publisher, was still in its key exchange. It took a few hundred refusals under load
+// to show; the server's statistics every 5 ms keep that exchange busy.
+TEST(Security, RefusedRobotIdsLeaveTheProgramRunning) {
+  Keystore keys;
+  ServerOptions o = secureServer(222, keys / "server");
+  o.statistics_period_s = 0.005;
+  TestServer server(o);
+  msg::DdsNode one(ddsAs(222, keys / "robot-1"));
+  for (int i = 0; i < 300; ++i) {
+    EXPECT_THROW(client::ScanPublisher(one, {"robot-2"}), msg::DdsError);
+  }
+  // A list with one refused id leaves none of its topics behind: the allowed id's readers went with it
+  // (their listeners died with the publisher), and a new publisher for that id gets its acknowledgements.
+  EXPECT_THROW(client::ScanPublisher(one, {"robot-1-3", "robot-2"}), msg::DdsError);
+  client::ScanPublisher robot(one, {"robot-1-3"});
+  ASSERT_TRUE(robot.waitForServer(30s));
+  const auto sent = scans(2);
+  for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1-3", i, sent[i]));
+  EXPECT_EQ(robot.waitForAcks({"robot-1-3"}, sent.size(), 60s).applied, sent.size());
+  EXPECT_EQ(server.service.statistics().totals().processed, sent.size());
+}
+
 TEST(Security, RepliesReachOnlyTheClientThatAsked) {
   Keystore keys;
   TestServer server(secureServer(204, keys / "server"));

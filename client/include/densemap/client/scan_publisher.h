@@ -92,6 +92,7 @@ class ScanPublisher {
   };
   Robot& robot(const std::string& robot_id, bool* made = nullptr);
   std::unique_ptr<Robot> makeRobot(const std::string& robot_id);
+  void removeRobots();
   void onAcks(eprosima::fastdds::dds::DataReader* reader);
   void onProgress(const std::string& robot_id, eprosima::fastdds::dds::DataReader* reader);
 
@@ -103,7 +104,8 @@ class ScanPublisher {
   std::condition_variable changed_;
   std::map<std::pair<std::string, std::uint64_t>, msg::ScanAck> acks_;
   std::function<void(const msg::ScanAck&)> ack_observer_;
-  StatisticsSubscriber statistics_;
+  // Made after the robots' topics: see the constructor.
+  std::unique_ptr<StatisticsSubscriber> statistics_;
   std::optional<std::chrono::steady_clock::time_point> matched_at_;
 };
 
