@@ -176,9 +176,13 @@ TEST(Security, ARobotCannotCommandOrQueryAndAClientCannotPublishScans) {
   msg::DdsNode robot_node(ddsAs(203, keys / "robot-1"));
   try {
     client::AdminClient admin(robot_node, "robot-1");
-    ADD_FAILURE() << "a robot identity made an admin request writer";
+    ADD_FAILURE() << "a robot identity made an admin client";
   } catch (const msg::DdsError& e) {
-    EXPECT_NE(std::string(e.what()).find("may not publish"), std::string::npos) << e.what();
+    // Refused at its first endpoint, the reply reader; the message says what to do.
+    EXPECT_NE(std::string(e.what()).find("may not subscribe to densemap/admin/reply/robot-1"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs another role's identity"), std::string::npos) << e.what();
   }
   EXPECT_THROW(client::QueryClient(robot_node, "robot-1"), msg::DdsError);
   // Nor can it read the other robots' scans.
@@ -252,6 +256,14 @@ TEST(Security, RefusedRobotIdsLeaveTheProgramRunning) {
   for (int i = 0; i < 300; ++i) {
     EXPECT_THROW(client::ScanPublisher(one, {"robot-2"}), msg::DdsError);
   }
+  // The same for a client identity asking under another client's id, or for the admin service.
+  msg::DdsNode client(ddsAs(222, keys / "client-1"));
+  for (int i = 0; i < 100; ++i) {
+    EXPECT_THROW(client::QueryClient(client, "client-2"), msg::DdsError);
+    EXPECT_THROW(client::AdminClient(client, "client-1"), msg::DdsError);
+  }
+  client::QueryClient query(client, "client-1");
+  ASSERT_TRUE(query.waitForServer(30s));
   // A list with one refused id leaves none of its topics behind: the allowed id's readers went with it
   // (their listeners died with the publisher), and a new publisher for that id gets its acknowledgements.
   EXPECT_THROW(client::ScanPublisher(one, {"robot-1-3", "robot-2"}), msg::DdsError);
@@ -261,6 +273,7 @@ TEST(Security, RefusedRobotIdsLeaveTheProgramRunning) {
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1-3", i, sent[i]));
   EXPECT_EQ(robot.waitForAcks({"robot-1-3"}, sent.size(), 60s).applied, sent.size());
   EXPECT_EQ(server.service.statistics().totals().processed, sent.size());
+  EXPECT_EQ(statsOf(query).stats().map_version(), sent.size());
 }
 
 TEST(Security, RepliesReachOnlyTheClientThatAsked) {

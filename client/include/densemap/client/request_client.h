@@ -43,8 +43,16 @@ class RequestClient {
     // request). A topic per client rather than a DDS content filter: the permissions can name it, and
     // Fast DDS 2.9 evaluated a filter on a dynamic-type copy of each sample (seconds per 1 MB reply).
     auto* replies = node_.topic(msg::peerTopicOf(reply_topic, id_), msg::typeSupport<ReplyPubSub>());
-    writer_ = node_.writer(requests, msg::kMessageWriterProfile);
+    // The reply reader first: an identity is refused a client id not its own there, and a role without
+    // this service is refused both, so a refusal throws before anything exists (deleting a fresh secure
+    // endpoint mid key exchange can crash Fast DDS 2.9: see ScanPublisher's constructor).
     reader_ = node_.reader(replies, msg::kMessageReaderProfile, listener_.get());
+    try {
+      writer_ = node_.writer(requests, msg::kMessageWriterProfile);
+    } catch (...) {
+      node_.remove(reader_);  // no destructor runs for a constructor that throws
+      throw;
+    }
   }
   ~RequestClient() {
     // Stop callbacks before the listener goes away.
