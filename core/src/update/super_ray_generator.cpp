@@ -109,12 +109,12 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
     first.clear();
     const bool track = assignment != nullptr;
     MappingLine xy, yz, zx;
-    // A cell's safe members as (region, point) in point order, and its distinct regions in order of
-    // first appearance. A cell holds a few regions (~13 points each on hilti2023 at 0.8 m), so a linear
-    // search groups them; a counting pass then lists each region's members in point order. This replaced
-    // a comparison sort of (three segments, point), the generator's largest cost on coarse grids.
-    std::vector<std::uint64_t> member_region;
-    std::vector<std::uint32_t> member_point, region_count, region_first, region_start, members;
+    // A cell's distinct regions in order of first appearance (and, for the assignment, its safe members as
+    // (region, point) in point order). A cell holds a few regions (~13 points each on hilti2023 at 0.8 m), so
+    // a linear search groups them; a counting pass then lists each region's members in point order. This
+    // replaced a comparison sort of (three segments, point), the generator's largest cost on coarse grids.
+    std::vector<std::uint32_t> member_region, member_point;  // filled only when tracking the assignment
+    std::vector<std::uint32_t> region_count, region_first, region_start, members;
     std::vector<std::uint64_t> regions;
     std::vector<std::uint32_t> table;  // open addressing, region number + 1 (large cells only)
 #pragma omp for schedule(dynamic, 64) nowait
@@ -179,8 +179,10 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
           region_first.push_back(idx);
         }
         ++region_count[r];
-        member_region.push_back(r);
-        member_point.push_back(idx);
+        if (track) {
+          member_region.push_back(static_cast<std::uint32_t>(r));
+          member_point.push_back(idx);
+        }
       }
       for (std::size_t r = 0; r < regions.size(); ++r)
         rays.push_back({ends[region_first[r]], region_count[r]});
