@@ -89,6 +89,71 @@ TEST(QueryLoad, EveryQueryGetsAResultOrBusyWithinTheDeadline) {
   EXPECT_GT(h.server->service.statistics().totals().processed, 0u) << "the map went on meanwhile";
 }
 
+// Clients joining while others query (CI hang, 2026-12-05): DDS's listener answered a small query inline
+// and waited for the reply writer another thread was making, while holding the request reader's lock that
+// the pairing of a joining client's request writer needed, which the writer being made waited for in turn.
+TEST(QueryLoad, ClientsJoiningWhileOthersQueryAreAllAnswered) {
+  auto o = serverOptions(145);
+  ServiceHarness h(o);
+  const auto scans = simScans(2);
+  ASSERT_TRUE(h.robot->publish("robot-0", 0, scans[0]));
+  ASSERT_EQ(h.robot->waitForAcks({"robot-0"}, 1, 60s).applied, 1u);
+  std::mt19937 rng(7);
+  const msg::QueryRequest small = randomPoints(rng, 200, 20.0f);  // answered inline on DDS's thread
+  constexpr auto kDeadline = 10s;
+  std::atomic<bool> joining{true};
+  std::atomic<std::uint64_t> answered{0}, late{0};
+  std::vector<std::thread> steady;
+  for (int c = 0; c < 2; ++c) {
+    steady.emplace_back([&, c] {
+      client::QueryClient qc(*h.node, "steady-" + std::to_string(c));
+      if (!qc.waitForServer(20s)) {
+        ++late;
+        return;
+      }
+      while (joining) {
+        try {
+          qc.call(small, kDeadline);
+          ++answered;
+        } catch (const client::QueryTimeout&) {
+          ++late;
+        }
+      }
+    });
+  }
+  // Four threads join 25 clients each, so that writers are often being made while others pair.
+  constexpr int kJoining = 100, kJoiningThreads = 4;
+  std::atomic<std::uint64_t> joined{0}, joined_late{0};
+  std::vector<std::thread> joiners;
+  for (int t = 0; t < kJoiningThreads; ++t) {
+    joiners.emplace_back([&, t] {
+      for (int c = t; c < kJoining; c += kJoiningThreads) {
+        client::QueryClient qc(*h.node, "joining-" + std::to_string(c));
+        try {
+          if (!qc.waitForServer(20s)) {  // its probes are inline queries too
+            ++joined_late;
+            continue;
+          }
+          EXPECT_EQ(qc.call(small, kDeadline).status(), msg::STATUS_OK);
+          ++joined;
+        } catch (const client::QueryTimeout&) {
+          ++joined_late;
+        }
+      }
+    });
+  }
+  for (auto& t : joiners) t.join();
+  joining = false;
+  for (auto& t : steady) t.join();
+  std::printf("%d clients joined (%llu answered) while 2 others had %llu answers\n", kJoining,
+              static_cast<unsigned long long>(joined.load()),
+              static_cast<unsigned long long>(answered.load()));
+  EXPECT_EQ(joined_late.load(), 0u) << "joining clients' first queries without an answer within the deadline";
+  EXPECT_EQ(late.load(), 0u) << "steady clients' queries without an answer within the deadline";
+  EXPECT_GT(answered.load(), static_cast<std::uint64_t>(kJoining))
+      << "the steady clients' queries should interleave with the joining";
+}
+
 /// A process's resident memory of one kind in MB ("RssAnon": its own heap and stacks; "RssShmem": the
 /// shared-memory transport's segments, fixed in size).
 double residentMb(pid_t pid, const std::string& kind = "RssAnon") {

@@ -361,17 +361,22 @@ void DdsEdge::ingestLoop() {
 }
 
 void DdsEdge::takeQueries() {
+  // Mostly on DDS's listener thread, which holds the request reader's lock: replies go out here only on a
+  // client's existing writer (writeReplyIfMade); making one waits for DDS locks that a thread pairing a
+  // new client's request writer with this reader holds while it waits for this reader's lock.
   msg::QueryRequest rq;
   fdds::SampleInfo info;
   while (query_reader_->take_next_sample(&rq, &info) == ReturnCode_t::RETCODE_OK) {
     if (!info.valid_data) continue;
     auto decoded = toQuery(rq);
-    if (auto* q = std::get_if<Query>(&decoded); q != nullptr && answerInline(*q)) {
+    // A new client's first query goes to a query thread, which makes its writer.
+    if (auto* q = std::get_if<Query>(&decoded);
+        q != nullptr && answerInline(*q) && replies_->has(rq.client_id())) {
       msg::QueryReply rp = toReply(rq, service_.answer(*q));
       if (rp.status() != msg::STATUS_OK)
         spdlog::warn("query {}#{} failed: {}", rq.client_id(), rq.request_id(), rp.message());
-      writeReply(rp);
-      continue;
+      if (writeReplyIfMade(rp)) continue;
+      // The writer went meanwhile (idle and unread): a query thread answers again and makes it anew.
     }
     {
       std::unique_lock lock(wake_mutex_);
@@ -385,6 +390,21 @@ void DdsEdge::takeQueries() {
     queries_ready_.notify_one();
     rq = msg::QueryRequest();
   }
+}
+
+bool DdsEdge::writeReplyIfMade(msg::QueryReply& rp) {
+  rp.server_id(service_.options().server_id);
+  switch (replies_->writeIfMade(rp.client_id(), &rp)) {
+    case ReplyWriters::Written::kYes:
+      return true;
+    case ReplyWriters::Written::kRefused:
+      service_.countRefusedQuery();
+      logRefusedClient(rp.client_id(), "query");
+      return true;  // handled: refused and counted
+    case ReplyWriters::Written::kNoWriterYet:
+      break;
+  }
+  return false;
 }
 
 void DdsEdge::writeReply(msg::QueryReply& rp) {
@@ -420,7 +440,9 @@ void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
   busy.message = fmt::format("server busy: {} queries already waiting (query-backlog); retry later",
                              options_.query_backlog);
   msg::QueryReply rp = toReply(rq, std::move(busy));
-  writeReply(rp);
+  // A client whose writer is not made yet (it is made once its reply reader is discovered, normally long
+  // before it asks) gets no busy reply: its call times out and it retries.
+  if (!writeReplyIfMade(rp)) spdlog::debug("busy reply to new client '{}' not sent", rq.client_id());
 }
 
 bool DdsEdge::isLargeQuery(const msg::QueryRequest& rq) const {

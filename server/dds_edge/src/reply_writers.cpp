@@ -40,23 +40,24 @@ ReplyWriters::ReplyWriters(msg::DdsNode& node, std::string reply_topic,
 
 ReplyWriters::~ReplyWriters() { stop(); }
 
+std::shared_ptr<ReplyWriters::Entry> ReplyWriters::find(const std::string& client_id) {
+  auto it = writers_.find(client_id);
+  if (it == writers_.end()) return nullptr;
+  it->second->last_used = std::chrono::steady_clock::now();
+  return it->second;
+}
+
 std::shared_ptr<ReplyWriters::Entry> ReplyWriters::get(const std::string& client_id) {
-  auto find = [&]() -> std::shared_ptr<Entry> {
-    auto it = writers_.find(client_id);
-    if (it == writers_.end()) return nullptr;
-    it->second->last_used = std::chrono::steady_clock::now();
-    return it->second;
-  };
   {
     std::lock_guard lock(mutex_);
-    if (auto e = find()) return e;
+    if (auto e = find(client_id)) return e;
   }
   // One writer made at a time (two threads replying to one new client make one), and never under mutex_:
   // DDS calls readerDiscovered() with its own locks held while making a writer may wait for them.
   std::lock_guard making(make_mutex_);
   {
     std::lock_guard lock(mutex_);
-    if (auto e = find()) return e;
+    if (auto e = find(client_id)) return e;
     if (!running_ || !msg::checkPeerId(client_id).empty() || writers_.size() >= max_clients_) {
       ++refused_;
       return nullptr;
@@ -76,6 +77,26 @@ bool ReplyWriters::write(const std::string& client_id, void* sample) {
   std::shared_ptr<Entry> e = get(client_id);
   if (!e) return false;
   return e->writer->write(sample);
+}
+
+ReplyWriters::Written ReplyWriters::writeIfMade(const std::string& client_id, void* sample) {
+  std::shared_ptr<Entry> e;
+  {
+    std::lock_guard lock(mutex_);
+    e = find(client_id);
+    if (!e) {
+      if (running_ && msg::checkPeerId(client_id).empty() && writers_.size() < max_clients_)
+        return Written::kNoWriterYet;
+      ++refused_;
+      return Written::kRefused;
+    }
+  }
+  return e->writer->write(sample) ? Written::kYes : Written::kRefused;
+}
+
+bool ReplyWriters::has(const std::string& client_id) const {
+  std::lock_guard lock(mutex_);
+  return writers_.count(client_id) != 0;
 }
 
 void ReplyWriters::readerDiscovered(const std::string& wire_topic) {

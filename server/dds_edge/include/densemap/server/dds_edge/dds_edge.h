@@ -103,6 +103,8 @@ class DdsEdge {
   std::size_t refuseScansStillInDds();
   void replyBusy(const msg::QueryRequest& rq);
   void writeReply(msg::QueryReply& rp);
+  /// writeReply() on the client's writer if it exists (never makes one); false if it does not yet.
+  bool writeReplyIfMade(msg::QueryReply& rp);
   void checkForAnotherServer();
   void takeStatistics();
   void writeAdminReply(msg::AdminReply& rp);

@@ -37,6 +37,13 @@ class ReplyWriters {
   /// client id or max_clients writers exist already.
   bool write(const std::string& client_id, void* sample);
 
+  enum class Written { kYes, kRefused, kNoWriterYet };
+  /// Like write(), but never makes a writer, so never waits for one being made: for DDS's listener threads,
+  /// which hold a reader's lock that making a writer may need in turn (a deadlock otherwise).
+  Written writeIfMade(const std::string& client_id, void* sample);
+  /// Whether `client_id`'s writer exists now.
+  bool has(const std::string& client_id) const;
+
   /// A reader on some topic was discovered (DDS's discovery thread): makes the writer soon when the topic
   /// is one of our reply topics. Never blocks on DDS.
   void readerDiscovered(const std::string& wire_topic);
@@ -57,6 +64,7 @@ class ReplyWriters {
     std::chrono::steady_clock::time_point last_used;
   };
   std::shared_ptr<Entry> get(const std::string& client_id);
+  std::shared_ptr<Entry> find(const std::string& client_id);  // under mutex_
   void maintain();
 
   msg::DdsNode& node_;
