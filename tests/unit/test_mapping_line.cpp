@@ -1,6 +1,9 @@
 // The mapping line (Sec. 2.3.1, Alg. 1) on 2D cases small enough to check by hand: the situations of
 // Fig. 2.5 (grid points of each slice's "out" line projected onto the line) and Fig. 2.6 (five rays, three
 // segments, three super rays).
+#include <algorithm>
+#include <cmath>
+#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -118,6 +121,48 @@ TEST(MappingLine, ProcessingAxisFollowsTheLargerOffset) {
   line.build(0.5, 0.5, kKeyCenter, kKeyCenter, kKeyCenter + 1, kKeyCenter + 3, p, p);
   ASSERT_EQ(line.projections().size(), 3u);  // the mirror image of Fig25
   EXPECT_DOUBLE_EQ(line.projections()[1], 1.0 / 3.0);
+}
+
+TEST(MappingLine, SegmentIsTheCountOfProjectionsAtOrBelowTheSlope) {
+  // classify's search (without data-dependent branches) against std::upper_bound over the projections, on
+  // cells 1-60 cells away in every direction (lines of 0 to ~60 projections) and random rays into them.
+  KeyConverter conv(0.2);
+  const double ou = 0.37, ov = -0.11;
+  geometry::KeyCoord ku = 0, kv = 0;
+  ASSERT_TRUE(conv.toKey(ou, ku) && conv.toKey(ov, kv));
+  GridPlanes pu(conv, ku), pv(conv, kv);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> offset(-60, 60);
+  std::uniform_real_distribution<double> inside(0.0, 1.0);
+  MappingLine line;
+  std::size_t checked = 0, lines_with_many = 0;
+  for (int c = 0; c < 400; ++c) {
+    const int cu = pu.origin_key + offset(rng), cv = pv.origin_key + offset(rng);
+    line.build(ou, ov, pu.origin_key, pv.origin_key, cu, cv, pu, pv);
+    const auto& proj = line.projections();
+    lines_with_many += proj.size() >= 16 ? 1 : 0;
+    const bool swapped = std::abs(cv - pv.origin_key) > std::abs(cu - pu.origin_key);
+    for (int r = 0; r < 50; ++r) {
+      const double u = conv.toCoord(static_cast<geometry::KeyCoord>(cu)) + (inside(rng) - 0.5) * 0.2;
+      const double v = conv.toCoord(static_cast<geometry::KeyCoord>(cv)) + (inside(rng) - 0.5) * 0.2;
+      const int got = line.classify(u, v);
+      if (cu == pu.origin_key && cv == pv.origin_key) {
+        EXPECT_EQ(got, 0);
+        continue;
+      }
+      const double m = swapped ? (u - ou) / (v - ov) : (v - ov) / (u - ou);
+      const auto it = std::upper_bound(proj.begin(), proj.end(), m);
+      const bool near_point = std::any_of(proj.begin(), proj.end(), [&](double g) {
+        return std::fabs(m - g) <= kSlopeTolerance * (std::fabs(m) + std::fabs(g)) + 1e-300;
+      });
+      if (near_point) continue;  // -1 there, or its neighbour's index when the nearest is not adjacent
+      EXPECT_EQ(got, static_cast<int>(it - proj.begin()))
+          << "cell " << cu << "," << cv << " ray " << u << "," << v;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 15'000u);
+  EXPECT_GT(lines_with_many, 100u) << "the lines should include long ones";
 }
 
 }  // namespace

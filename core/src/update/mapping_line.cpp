@@ -68,13 +68,27 @@ int MappingLine::classify(double u, double v) const {
   const double p = swapped_ ? v - ov_ : u - ou_;
   const double q = swapped_ ? u - ou_ : v - ov_;
   const double m = q / p;
-  const auto it = std::upper_bound(slopes_.begin(), slopes_.end(), m);
+  if (std::isnan(m)) return -1;  // cannot be placed: its own walk
+  // upper_bound without data-dependent branches: the comparisons become conditional moves, where a
+  // branching search mispredicts about half its steps (rays in a cell are in point order, not slope order),
+  // and classify ran three times per point was the generator's largest cost on coarse grids.
+  const double* s = slopes_.data();
+  std::size_t len = slopes_.size(), at = 0;
+  if (len > 0) {
+    const double* base = s;
+    while (len > 1) {
+      const std::size_t half = len / 2;
+      base = base[half] <= m ? base + half : base;
+      len -= half;
+    }
+    at = static_cast<std::size_t>(base - s) + (*base <= m ? 1 : 0);
+  }
   auto near = [&](double g) {
     return std::fabs(m - g) <= kSlopeTolerance * (std::fabs(m) + std::fabs(g)) + 1e-300;
   };
-  if (it != slopes_.end() && near(*it)) return -1;
-  if (it != slopes_.begin() && near(*(it - 1))) return -1;
-  return static_cast<int>(it - slopes_.begin());
+  if (at < slopes_.size() && near(s[at])) return -1;
+  if (at > 0 && near(s[at - 1])) return -1;
+  return static_cast<int>(at);
 }
 
 }  // namespace densemap::update

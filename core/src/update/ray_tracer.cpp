@@ -51,6 +51,8 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
   const auto subset = o.subset;
   const auto& conv = map.converter();
   std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
+  VoxelKey origin_key;  // once per scan, not per ray
+  const bool origin_ok = conv.toKey(origin, origin_key);
 #pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
   {
     Marker<kCountUnnecessary, kCounting> mark(map, ev);
@@ -63,7 +65,7 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
         continue;
       const SuperRay& r = rays[i];
       RaySetup setup;
-      if (!geometry::setupRay(conv, origin, r.end, setup)) continue;
+      if (!origin_ok || !geometry::setupRay(conv, origin, origin_key, r.end, setup)) continue;
       auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
       auto in_region = [&](const VoxelKey& k) {
         if constexpr (!kRegion) return false;

@@ -152,8 +152,12 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
         const double px = p.x(), py = p.y(), pz = p.z();
         const int s0 = xy.classify(px, py), s1 = yz.classify(py, pz), s2 = zx.classify(pz, px);
         geometry::RaySetup setup;
-        const bool safe =
-            s0 >= 0 && s1 >= 0 && s2 >= 0 && geometry::setupRay(conv, origin, p, setup) && endIsRobust(setup);
+        bool safe = s0 >= 0 && s1 >= 0 && s2 >= 0;
+        if (safe) {
+          geometry::setupRayWithKeys(conv, origin, ok, p, ck,
+                                     setup);  // ck: this end's cell, ok: the origin's
+          safe = endIsRobust(setup);
+        }
         if (!safe) {
           // Passes within rounding distance of a grid edge, or ends next to a cell face: its own walk.
           ++unsafe;

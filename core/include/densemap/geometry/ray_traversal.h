@@ -39,9 +39,12 @@ struct RaySetup {
   float length = 0.0f;
 };
 
-/// False when the origin or the endpoint lies outside the key range (OctoMap then skips the ray).
-inline bool setupRay(const KeyConverter& conv, const Vec3f& origin, const Vec3f& end, RaySetup& r) {
-  if (!conv.toKey(origin, r.origin_key) || !conv.toKey(end, r.end_key)) return false;
+/// setupRay() with both keys already known (conv.toKey of origin and end): the origin's is the same for a
+/// whole scan and the end's is known where rays are grouped by end cell, so callers need not recompute them.
+inline void setupRayWithKeys(const KeyConverter& conv, const Vec3f& origin, const VoxelKey& origin_key,
+                             const Vec3f& end, const VoxelKey& end_key, RaySetup& r) {
+  r.origin_key = origin_key;
+  r.end_key = end_key;
   float d[3] = {end.x() - origin.x(), end.y() - origin.y(), end.z() - origin.z()};
   const float sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
   r.length = static_cast<float>(std::sqrt(static_cast<double>(sq)));
@@ -65,7 +68,22 @@ inline bool setupRay(const KeyConverter& conv, const Vec3f& origin, const Vec3f&
       r.t_delta[i] = std::numeric_limits<double>::max();
     }
   }
+}
+
+/// As setupRay(), with the origin's key known (`origin_key` = conv.toKey(origin)).
+inline bool setupRay(const KeyConverter& conv, const Vec3f& origin, const VoxelKey& origin_key,
+                     const Vec3f& end, RaySetup& r) {
+  VoxelKey end_key;
+  if (!conv.toKey(end, end_key)) return false;
+  setupRayWithKeys(conv, origin, origin_key, end, end_key, r);
   return true;
+}
+
+/// False when the origin or the endpoint lies outside the key range (OctoMap then skips the ray).
+inline bool setupRay(const KeyConverter& conv, const Vec3f& origin, const Vec3f& end, RaySetup& r) {
+  VoxelKey origin_key;
+  if (!conv.toKey(origin, origin_key)) return false;
+  return setupRay(conv, origin, origin_key, end, r);
 }
 
 /// Forward walk identical to OctoMap's computeRayKeys: visits the origin cell and every cell up to, not
