@@ -154,8 +154,8 @@ void SuperRayGenerator::generate(const geometry::KeyConverter& conv, const Vec3f
         geometry::RaySetup setup;
         bool safe = s0 >= 0 && s1 >= 0 && s2 >= 0;
         if (safe) {
-          geometry::setupRayWithKeys(conv, origin, ok, p, ck,
-                                     setup);  // ck: this end's cell, ok: the origin's
+          // ck is this end's cell and ok the origin's: the keys setupRay() would compute again.
+          geometry::setupRayWithKeys(conv, origin, ok, p, ck, setup);
           safe = endIsRobust(setup);
         }
         if (!safe) {

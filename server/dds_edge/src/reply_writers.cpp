@@ -47,6 +47,10 @@ std::shared_ptr<ReplyWriters::Entry> ReplyWriters::find(const std::string& clien
   return it->second;
 }
 
+bool ReplyWriters::accepts(const std::string& client_id) const {
+  return running_ && msg::checkPeerId(client_id).empty() && writers_.size() < max_clients_;
+}
+
 std::shared_ptr<ReplyWriters::Entry> ReplyWriters::get(const std::string& client_id) {
   {
     std::lock_guard lock(mutex_);
@@ -58,7 +62,7 @@ std::shared_ptr<ReplyWriters::Entry> ReplyWriters::get(const std::string& client
   {
     std::lock_guard lock(mutex_);
     if (auto e = find(client_id)) return e;
-    if (!running_ || !msg::checkPeerId(client_id).empty() || writers_.size() >= max_clients_) {
+    if (!accepts(client_id)) {
       ++refused_;
       return nullptr;
     }
@@ -85,8 +89,7 @@ ReplyWriters::Written ReplyWriters::writeIfMade(const std::string& client_id, vo
     std::lock_guard lock(mutex_);
     e = find(client_id);
     if (!e) {
-      if (running_ && msg::checkPeerId(client_id).empty() && writers_.size() < max_clients_)
-        return Written::kNoWriterYet;
+      if (accepts(client_id)) return Written::kNoWriterYet;
       ++refused_;
       return Written::kRefused;
     }

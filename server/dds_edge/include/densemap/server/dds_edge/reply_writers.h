@@ -65,6 +65,8 @@ class ReplyWriters {
   };
   std::shared_ptr<Entry> get(const std::string& client_id);
   std::shared_ptr<Entry> find(const std::string& client_id);  // under mutex_
+  /// Whether a new writer may be made for `client_id` (a valid id, below max_clients); under mutex_.
+  bool accepts(const std::string& client_id) const;
   void maintain();
 
   msg::DdsNode& node_;
