@@ -62,6 +62,30 @@ TEST(MethodChooser, LosersAreRetriedEverLessOften) {
   EXPECT_LT(spent / best, 1.01);
 }
 
+TEST(MethodChooser, TriesCostAboutTheBudgetInShortAndLongRuns) {
+  const std::map<UpdateMethod, double> cost = {{UpdateMethod::kBaseline, 1.0},
+                                               {UpdateMethod::kCullingRegion, 1.3},
+                                               {UpdateMethod::kSuperRays, 2.0},
+                                               {UpdateMethod::kSuperRaysCulling, 1.8}};
+  for (const int scans : {30, 60, 200, 1000}) {
+    MethodChooser c;
+    const auto used = simulate(c, cost, scans);
+    double spent = 0;
+    for (const auto& [m, n] : used) spent += n * cost.at(m);
+    // Beyond the fastest's time: the budget (2%), the two cold-start tries of culling (0.3 scans each) and
+    // at most one try that cost more than expected (an untried method, assumed 0.5 scans over, took 0.8).
+    const double allowed = 0.02 * scans + 2 * 0.3 + 0.3;
+    EXPECT_LE(spent - scans * 1.0, allowed + 1e-9) << scans << " scans: " << c.summary();
+  }
+  // Without a budget every due loser is tried: a 60-scan run pays for two tries of each super-ray method.
+  MethodChooserOptions unlimited;
+  unlimited.probe_budget = 1e9;
+  MethodChooser c(unlimited);
+  const auto used = simulate(c, cost, 60);
+  EXPECT_EQ(used.at(UpdateMethod::kSuperRays), 2);
+  EXPECT_EQ(used.at(UpdateMethod::kSuperRaysCulling), 2);
+}
+
 TEST(MethodChooser, FollowsTheDataWhenAnotherMethodBecomesFaster) {
   MethodChooser c;
   std::map<UpdateMethod, double> cost = {{UpdateMethod::kBaseline, 1.0},
@@ -111,6 +135,7 @@ TEST(MethodChooser, TheFastestMethodBuildsTheBaselinesMapAndSaysWhatItRan) {
     ASSERT_EQ(fast.method, UpdateMethod::kFastest);
     fast.chooser.probe_after = 2;  // let all four run within a short test
     fast.chooser.probe_interval = 2;
+    fast.chooser.probe_budget = 1.0;  // and pay for them
     UpdateEngine a(base), b(fast);
     std::map<UpdateMethod, int> ran;
     for (std::size_t i = 0; i < 12; ++i) {

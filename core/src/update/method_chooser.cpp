@@ -38,17 +38,26 @@ UpdateMethod MethodChooser::next() {
   const std::uint64_t now = scan_++;
   // Every method once, cheap ones first, then the cheap ones a second time (their first scan is the cold
   // one: with a single sample the choice between two methods within a few percent settled on noise until
-  // the first re-try, 20 scans on); then the most overdue loser, if any is due; else the fastest.
+  // the first re-try, 20 scans on); then the most overdue loser, if any is due; else the fastest. Other
+  // than the cheap methods' first two tries, a try waits until the budget holds its expected cost.
   for (UpdateMethod m : kTryOrder)
-    if (slot(m).scans == 0 && slot(m).due <= now) return m;
+    if (slot(m).scans == 0 && slot(m).due <= now && (cheap(m) || expectedExtraMs(m) <= budget_ms_)) return m;
   for (UpdateMethod m : kTryOrder)
     if (cheap(m) && slot(m).scans == 1) return m;
   const UpdateMethod fastest = best();
   UpdateMethod probe = fastest;
   std::uint64_t oldest = now + 1;
   for (UpdateMethod m : kTryOrder)
-    if (m != fastest && slot(m).due <= now && slot(m).due < oldest) oldest = slot(m).due, probe = m;
+    if (m != fastest && slot(m).due <= now && slot(m).due < oldest && expectedExtraMs(m) <= budget_ms_)
+      oldest = slot(m).due, probe = m;
   return probe;
+}
+
+double MethodChooser::expectedExtraMs(UpdateMethod m) const {
+  const double best_us = slot(best()).us_per_point;
+  const double extra_us =
+      slot(m).scans == 0 ? options_.untried_extra * best_us : std::max(0.0, slot(m).us_per_point - best_us);
+  return extra_us * points_per_scan_ / 1000.0;
 }
 
 void MethodChooser::record(UpdateMethod method, double ms, std::uint64_t points) {
@@ -57,6 +66,18 @@ void MethodChooser::record(UpdateMethod method, double ms, std::uint64_t points)
   const bool probe = method != before;
   Slot& s = slot(method);
   const double us = 1000.0 * ms / static_cast<double>(points);
+  // The budget: every scan earns its share of what the fastest would have taken; a try pays what it took
+  // beyond that (nothing if it was faster).
+  const Slot& b = slot(before);
+  if (b.scans > 0) {
+    const double fastest_ms = b.us_per_point * static_cast<double>(points) / 1000.0;
+    budget_ms_ += options_.probe_budget * fastest_ms;
+    if (probe) budget_ms_ -= std::max(0.0, ms - fastest_ms);
+  }
+  // The mean of the scans so far, then of about the last 50 (scans may grow or shrink).
+  ++recorded_;
+  points_per_scan_ +=
+      (static_cast<double>(points) - points_per_scan_) * std::max(0.02, 1.0 / static_cast<double>(recorded_));
   // The first scans of a run are slow (buffers growing, caches cold): a method's first two times keep their
   // minimum, so a cold first try does not condemn it; later ones are smoothed.
   if (s.scans == 0)

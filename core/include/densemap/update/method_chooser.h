@@ -4,9 +4,12 @@
 // 1.6 points), while dense indoor scans, coarse voxels and densified scans group many points per ray.
 // A scan's cost is known only after running it, so the choice is measured rather than predicted: the cheap
 // methods (baseline, culling) are tried first, twice each (a run's first scan is a cold one), the super-ray
-// ones after `probe_after` scans, each loser
-// again after an interval that doubles every time it loses (so a method that loses costs ever less), and
-// the method with the lowest smoothed time per point runs the other scans.
+// ones no earlier than `probe_after` scans, each loser again after an interval that doubles every time it
+// loses, and the method with the lowest smoothed time per point runs the other scans.
+// Tries are paid from an exploration budget: every scan adds `probe_budget` of the fastest method's time,
+// and a method other than the fastest runs only when the budget holds what it is expected to cost beyond
+// the fastest (an untried super-ray method: `untried_extra` of the fastest's time). So trying costs at most
+// about that share of the time however short or long the run, and a method that lost by much waits longer.
 #pragma once
 
 #include <array>
@@ -18,9 +21,11 @@
 namespace densemap::update {
 
 struct MethodChooserOptions {
-  std::uint64_t probe_after = 20;     ///< scans before the super-ray methods are first tried
-  std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries (doubles per loss)
+  std::uint64_t probe_after = 20;  ///< scans before the super-ray methods are first tried (at the earliest)
+  std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries, at least (doubles per loss)
   std::uint64_t max_interval = 640;   ///< the doubling stops here
+  double probe_budget = 0.02;         ///< share of the fastest method's time that tries of others may cost
+  double untried_extra = 0.5;         ///< an untried super-ray method's assumed extra time over the fastest
   double smoothing = 0.2;             ///< weight of the newest time in the running method's average
   double probe_weight = 0.5;          ///< the same for a method tried again after losing
 };
@@ -41,6 +46,8 @@ class MethodChooser {
   double microsecondsPerPoint(UpdateMethod m) const { return slot(m).us_per_point; }
   /// "culling 37, baseline 2, superrays 1, superrays+culling 1" (most used first).
   std::string summary() const;
+  /// The exploration budget not yet spent, in ms (negative: the tries so far cost more than it held).
+  double budgetMs() const { return budget_ms_; }
 
  private:
   struct Slot {
@@ -54,8 +61,14 @@ class MethodChooser {
 
   MethodChooserOptions options_;
   std::array<Slot, 4> slots_{};
+  /// What a try of `m` is expected to cost beyond a scan of the fastest method (ms).
+  double expectedExtraMs(UpdateMethod m) const;
+
   std::uint64_t scan_ = 0;
   bool started_ = false;
+  double budget_ms_ = 0.0;        ///< exploration budget not yet spent (negative: overspent)
+  double points_per_scan_ = 0.0;  ///< recent mean, to turn times per point into times per scan
+  std::uint64_t recorded_ = 0;
 };
 
 }  // namespace densemap::update
