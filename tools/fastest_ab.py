@@ -1,0 +1,34 @@
+#!/usr/bin/env python3
+"""fastest against the best of the four, two builds side by side (issue 24, deliverable 2).
+Usage: tools/fastest_ab.py OLD_DENSEMAP_BENCH NEW_DENSEMAP_BENCH [RUNS=2]
+Runs both builds in alternation on kitti00 0-9, hilti2023 0-29, sim:scans=60 and la3dm sim_structured
+(from ../shared/data) with --method all --repeat 5 at 0.1-0.8 m, and prints per source and backend the
+median time_vs_best_of_four, old->new. Raw figures and what fastest ran: /tmp/fastest_ab.json."""
+import json,subprocess,sys,statistics as S
+if len(sys.argv) < 3 or sys.argv[1] in ("-h", "--help"):
+  print(__doc__); sys.exit(0 if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help") else 2)
+import os
+DATA=os.path.join(os.path.dirname(os.path.abspath(__file__)),"..","..","shared","data")
+old,new=sys.argv[1],sys.argv[2]
+sources=[("kitti00",DATA+"/kitti00","0:9"),("hilti2023",DATA+"/hilti2023","0:29"),("sim60","sim:scans=60",""),("la3dm",DATA+"/la3dm/sim_structured","")]
+runs=int(sys.argv[3]) if len(sys.argv)>3 else 2
+res={}
+for name,src,scans in sources:
+  for run in range(runs):
+    order=[("old",old),("new",new)] if run%2==0 else [("new",new),("old",old)]
+    for which,exe in order:
+      cmd=[exe,"--no-octomap","--no-unnecessary","--json","--resolution","0.1,0.2,0.4,0.8","--method","all","--repeat","5","--source",src]
+      if scans: cmd+=["--scans",scans]
+      p=subprocess.run(cmd,capture_output=True,text=True)
+      for line in p.stdout.splitlines():
+        d=json.loads(line)
+        if d["method"]!="fastest": continue
+        res.setdefault((name,d["backend"],d["resolution"],which),[]).append(d["time_vs_best_of_four"])
+        res.setdefault((name,d["backend"],d["resolution"],which+"_chosen"),[]).append(d["chosen"][0])
+  for be in ("grid","octree"):
+    line=[]
+    for r in (0.1,0.2,0.4,0.8):
+      o=S.median(res[(name,be,r,"old")]); n=S.median(res[(name,be,r,"new")])
+      line.append("%.2f->%.2f"%(o,n))
+    print(name,be," / ".join(line),flush=True)
+json.dump({"|".join(map(str,k)):v for k,v in res.items()},open("/tmp/fastest_ab.json","w"))
