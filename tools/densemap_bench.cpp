@@ -39,6 +39,23 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/// A method's own noise in this run: the interquartile range of its repetitions over their median
+/// (quartiles interpolated linearly; 0 with fewer than two). For normal noise that is about 1.7 standard
+/// errors of the ratio of two medians of 5, so a smaller difference between two methods is not a measured
+/// one (issue 24).
+double relativeSpread(std::vector<double> v) {
+  if (v.size() < 2) return 0.0;
+  std::sort(v.begin(), v.end());
+  auto quantile = [&](double q) {
+    const double pos = q * static_cast<double>(v.size() - 1);
+    const auto i = static_cast<std::size_t>(pos);
+    const double f = pos - static_cast<double>(i);
+    return i + 1 < v.size() ? v[i] * (1.0 - f) + v[i + 1] * f : v[i];
+  };
+  const double m = median(v);
+  return m > 0.0 ? (quantile(0.75) - quantile(0.25)) / m : 0.0;
+}
+
 std::vector<std::string> splitList(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -231,7 +248,8 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", repeat,
                  "runs per configuration, each starting the methods one further along (a multiple of the "
                  "number of methods gives each method every place in the order); medians and median ratios "
-                 "are reported")
+                 "are reported, and with 2 or more, whether fastest is slower than the best of the four by "
+                 "more than the best's own interquartile spread over the repeats")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   app.add_option("--realtime", realtime,
@@ -473,8 +491,14 @@ int main(int argc, char** argv) {
             }
             if (!a.chosen.empty()) j["chosen"] = a.chosen;
             if (m == update::UpdateMethod::kFastest && best_of_four.count(backend)) {
-              j["best_of_four"] = update::toString(best_of_four[backend].first);
-              j["time_vs_best_of_four"] = total / best_of_four[backend].second;
+              const auto [best, best_ms] = best_of_four[backend];
+              j["best_of_four"] = update::toString(best);
+              j["time_vs_best_of_four"] = total / best_ms;
+              if (repeat > 1) {
+                const double noise = relativeSpread(acc[{backend, best}].total_ms);
+                j["best_of_four_spread"] = noise;
+                j["slower_than_best_beyond_spread"] = total / best_ms > 1.0 + noise;
+              }
             }
             if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
             std::printf("%s\n", j.dump().c_str());
@@ -493,10 +517,18 @@ int main(int argc, char** argv) {
                                            .c_str()
                                      : "");
             if (!a.chosen.empty()) std::printf("          fastest ran: %s\n", a.chosen.back().c_str());
-            if (m == update::UpdateMethod::kFastest && best_of_four.count(backend))
-              std::printf("          fastest took %.2fx the time of the best of the four (%s)\n",
-                          total / best_of_four[backend].second,
-                          std::string(update::toString(best_of_four[backend].first)).c_str());
+            if (m == update::UpdateMethod::kFastest && best_of_four.count(backend)) {
+              const auto [best, best_ms] = best_of_four[backend];
+              std::printf("          fastest took %.2fx the time of the best of the four (%s)",
+                          total / best_ms, std::string(update::toString(best)).c_str());
+              if (repeat > 1) {
+                const double noise = relativeSpread(acc[{backend, best}].total_ms);
+                std::printf("; %s's own interquartile spread over the %d repeats: %.1f%%, so %s",
+                            std::string(update::toString(best)).c_str(), repeat, 100.0 * noise,
+                            total / best_ms > 1.0 + noise ? "SLOWER beyond the noise" : "within the noise");
+              }
+              std::printf("\n");
+            }
           }
         }
       bool all_identical = true;

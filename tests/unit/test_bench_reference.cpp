@@ -1,6 +1,7 @@
-// densemap-bench's OctoMap reference in its own process (issue 24): the benchmark runs
-// densemap-octomap-reference, its octree maps equal the map that process builds, and the reference program
-// refuses corrupt or foreign input with a message instead of crashing.
+// densemap-bench's references (issue 24): the benchmark runs densemap-octomap-reference, its octree maps
+// equal the map that process builds, and the reference program refuses corrupt or foreign input with a
+// message instead of crashing; the default method is judged against the best of the four and that
+// method's own spread in the same run.
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -60,6 +61,44 @@ TEST(BenchReference, OctomapRunsInItsOwnProcessAndTheOctreeMapsEqualIts) {
   EXPECT_EQ(j["scans"], 3);
   EXPECT_EQ(j["memory_bytes"], by_method["octomap"]["memory_bytes"]);
   EXPECT_EQ(j["scan_ms"].size(), 3u);
+}
+
+std::map<std::string, nlohmann::json> fastestByBackend(const std::string& out) {
+  std::map<std::string, nlohmann::json> by_backend;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] != '{') continue;
+    const auto j = nlohmann::json::parse(line);
+    if (j.at("method") == "fastest") by_backend[j.at("backend")] = j;
+  }
+  return by_backend;
+}
+
+TEST(BenchReference, FastestIsJudgedAgainstTheBestsOwnSpread) {
+  const std::string command = std::string(DENSEMAP_BENCH_BINARY) +
+                              " --source sim:scans=4,beams=16,columns=256 --resolution 0.4 --no-octomap"
+                              " --no-unnecessary --method all --json --repeat ";
+  int status = 0;
+  const std::string out = run(command + "4", status);
+  ASSERT_EQ(status, 0) << out;
+  const auto fastest = fastestByBackend(out);
+  ASSERT_EQ(fastest.size(), 2u) << out;  // grid and octree
+  for (const auto& [backend, j] : fastest) {
+    ASSERT_TRUE(j.contains("best_of_four_spread")) << j.dump();
+    const double ratio = j.at("time_vs_best_of_four").get<double>();
+    const double spread = j.at("best_of_four_spread").get<double>();
+    EXPECT_GT(ratio, 0.0) << backend;
+    EXPECT_GE(spread, 0.0) << backend;
+    EXPECT_EQ(j.at("slower_than_best_beyond_spread").get<bool>(), ratio > 1.0 + spread) << j.dump();
+    EXPECT_NE(j.at("best_of_four"), "fastest");
+  }
+  // One run has no spread, so no verdict either.
+  const std::string once = run(command + "1", status);
+  ASSERT_EQ(status, 0) << once;
+  for (const auto& [backend, j] : fastestByBackend(once)) {
+    EXPECT_TRUE(j.contains("time_vs_best_of_four")) << j.dump();
+    EXPECT_FALSE(j.contains("best_of_four_spread")) << j.dump();
+  }
 }
 
 TEST(BenchReference, CorruptTruncatedOrMissingInputIsRefusedWithAMessage) {
