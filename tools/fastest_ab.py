@@ -1,28 +1,44 @@
 #!/usr/bin/env python3
 """fastest against the best of the four, two builds side by side (issue 24, deliverable 2).
 Usage: tools/fastest_ab.py OLD_DENSEMAP_BENCH NEW_DENSEMAP_BENCH [RUNS=2]
+       tools/fastest_ab.py --verdict DENSEMAP_BENCH
 Runs both builds in alternation on kitti00 0-9, hilti2023 0-29, sim:scans=60 and la3dm sim_structured
 (from ../shared/data) with --method all --repeat 5 at 0.1-0.8 m, and prints per source and backend the
-median time_vs_best_of_four, old->new. Raw figures and what fastest ran: /tmp/fastest_ab.json."""
+median time_vs_best_of_four, old->new. Raw figures and what fastest ran: /tmp/fastest_ab.json.
+--verdict runs one build once on the same sources and prints, per cell, time_vs_best_of_four, the best's
+own interquartile spread over the 5 repeats, and whether fastest was slower beyond it."""
 import json,subprocess,sys,statistics as S
 if len(sys.argv) < 3 or sys.argv[1] in ("-h", "--help"):
   print(__doc__); sys.exit(0 if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help") else 2)
 import os
 DATA=os.path.join(os.path.dirname(os.path.abspath(__file__)),"..","..","shared","data")
-old,new=sys.argv[1],sys.argv[2]
 sources=[("kitti00",DATA+"/kitti00","0:9"),("hilti2023",DATA+"/hilti2023","0:29"),("sim60","sim:scans=60",""),("la3dm",DATA+"/la3dm/sim_structured","")]
+def bench(exe,src,scans):
+  cmd=[exe,"--no-octomap","--no-unnecessary","--json","--resolution","0.1,0.2,0.4,0.8","--method","all","--repeat","5","--source",src]
+  if scans: cmd+=["--scans",scans]
+  p=subprocess.run(cmd,capture_output=True,text=True)
+  return [d for d in map(json.loads,p.stdout.splitlines()) if d["method"]=="fastest"]
+if sys.argv[1]=="--verdict":
+  slower=cells=0
+  for name,src,scans in sources:
+    found={(d["backend"],d["resolution"]):d for d in bench(sys.argv[2],src,scans)}
+    for be in ("grid","octree"):
+      line=[]
+      for r in (0.1,0.2,0.4,0.8):
+        d=found[(be,r)]; cells+=1; slower+=d["slower_than_best_beyond_spread"]
+        line.append("%.2f (%.1f%%)%s"%(d["time_vs_best_of_four"],100*d["best_of_four_spread"],
+                                       " SLOWER" if d["slower_than_best_beyond_spread"] else ""))
+      print(name,be," / ".join(line),flush=True)
+  print("slower than the best beyond its own spread: %d of %d cells"%(slower,cells))
+  sys.exit(0)
+old,new=sys.argv[1],sys.argv[2]
 runs=int(sys.argv[3]) if len(sys.argv)>3 else 2
 res={}
 for name,src,scans in sources:
   for run in range(runs):
     order=[("old",old),("new",new)] if run%2==0 else [("new",new),("old",old)]
     for which,exe in order:
-      cmd=[exe,"--no-octomap","--no-unnecessary","--json","--resolution","0.1,0.2,0.4,0.8","--method","all","--repeat","5","--source",src]
-      if scans: cmd+=["--scans",scans]
-      p=subprocess.run(cmd,capture_output=True,text=True)
-      for line in p.stdout.splitlines():
-        d=json.loads(line)
-        if d["method"]!="fastest": continue
+      for d in bench(exe,src,scans):
         res.setdefault((name,d["backend"],d["resolution"],which),[]).append(d["time_vs_best_of_four"])
         res.setdefault((name,d["backend"],d["resolution"],which+"_chosen"),[]).append(d["chosen"][0])
   for be in ("grid","octree"):
