@@ -40,7 +40,7 @@ double median(std::vector<double> v) {
 }
 
 /// A method's own noise in this run: the interquartile range of its repetitions over their median
-/// (quartiles interpolated linearly; 0 with fewer than two). For normal noise that is about 1.7 standard
+/// (quartiles interpolated linearly; 0 with fewer than two). For normal noise that is about 1.8 standard
 /// errors of the ratio of two medians of 5, so a smaller difference between two methods is not a measured
 /// one (issue 24).
 double relativeSpread(std::vector<double> v) {

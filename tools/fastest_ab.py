@@ -17,6 +17,8 @@ def bench(exe,src,scans):
   cmd=[exe,"--no-octomap","--no-unnecessary","--json","--resolution","0.1,0.2,0.4,0.8","--method","all","--repeat","5","--source",src]
   if scans: cmd+=["--scans",scans]
   p=subprocess.run(cmd,capture_output=True,text=True)
+  if p.returncode!=0:
+    sys.exit("fastest_ab: %s failed (exit %d); is the data in %s?\n%s"%(" ".join(cmd),p.returncode,DATA,p.stderr[-2000:]))
   return [d for d in map(json.loads,p.stdout.splitlines()) if d["method"]=="fastest"]
 if sys.argv[1]=="--verdict":
   slower=cells=0
