@@ -4,6 +4,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <random>
 #include <utility>
 
 #include "densemap/densify/densify_dataset.h"
@@ -263,20 +265,28 @@ TEST(Iln, ShippedWeightsBeatBilinearOnRealScansTheyNeverSaw) {
   EXPECT_GT(iln.f1, bil.f1);
 }
 
-TEST(Iln, FineTunedOnKittiBeatsBilinearOnHeldOutScans) {
+TEST(Iln, FineTuningOnKittiImprovesTheShippedWeightsOnHeldOutScans) {
   DENSEMAP_REQUIRE_DATA("kitti00");
   // The shipped weights saw only the simulator (nothing derived from the datasets is committed); fine-tuning
-  // them on kitti00 scans 0-49, as `densemap-iln train --init` does, must beat bilinear on scans 50-59.
+  // them on kitti00 scans 0-49, as `densemap-iln train --init` does, must lower their range error on scans
+  // 50-59 and still beat bilinear there. 100 steps: `densemap-iln train --steps 100` then `eval` gave MAE
+  // 0.381 m against the shipped 0.391 and bilinear's 0.403 (docs/BENCHMARKS.md, ILN densify). One libtorch
+  // thread: beside another ctest job, two threads made 600 steps take 8 minutes.
   auto net = densify::IlnUpsampler::load(shippedWeights());
-  net.restartTraining();
-  densify::IlnUpsampler::setThreads(2);
+  densify::IlnUpsampler::setThreads(1);
   auto src = io::openSource(test::dataDir() + "/kitti00");
+  const auto [shipped, bil] = scoreOnKittiHeldOut(net, *src);
+  net.restartTraining();
   std::vector<densify::RangeImagePair> train;
   for (std::size_t i = 0; i < 50; ++i)
     train.push_back(densify::exampleFromScan(src->read(i), LidarGeometry{}, 4));
   std::mt19937 rng(1);
-  for (int s = 0; s < 600; ++s) net.trainStep(train, densify::IlnTrainOptions{}, rng);
-  const auto [iln, bil] = scoreOnKittiHeldOut(net, *src);  // scans 50-59, never trained on
-  EXPECT_LT(iln.mae_m, bil.mae_m);
-  EXPECT_GT(iln.f1, bil.f1);
+  for (int s = 0; s < 100; ++s) net.trainStep(train, densify::IlnTrainOptions{}, rng);
+  const auto [tuned, bil_again] = scoreOnKittiHeldOut(net, *src);  // scans 50-59, never trained on
+  std::cout << "summed over 10 scans: MAE shipped " << shipped.mae_m << ", fine-tuned " << tuned.mae_m
+            << ", bilinear " << bil.mae_m << "; F1 fine-tuned " << tuned.f1 << ", bilinear " << bil.f1
+            << "\n";
+  EXPECT_LT(tuned.mae_m, shipped.mae_m) << "fine-tuning on real scans should lower the real-scan error";
+  EXPECT_LT(tuned.mae_m, bil.mae_m);
+  EXPECT_GT(tuned.f1, bil.f1);
 }

@@ -58,8 +58,8 @@ TEST_F(Fig25, EachSegmentIsOneTraversalPattern) {
   // In 3D with z fixed at the cell centre the walk is the 2D one; OctoMap's own ray keys must agree within a
   // segment and differ between segments.
   octomap::OcTree tree(1.0);
+  octomap::KeyRay ray;  // 100,000 keys: one for every call
   auto cells = [&](double x, double y) {
-    octomap::KeyRay ray;
     tree.computeRayKeys(octomap::point3d(0.5f, 0.5f, 0.5f), octomap::point3d(float(x), float(y), 0.5f), ray);
     return std::vector<octomap::OcTreeKey>(ray.begin(), ray.end());
   };

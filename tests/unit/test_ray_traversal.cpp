@@ -12,7 +12,7 @@ namespace densemap::geometry {
 namespace {
 
 std::vector<VoxelKey> octomapRay(const octomap::OcTree& tree, const Vec3f& o, const Vec3f& e) {
-  octomap::KeyRay ray;
+  static thread_local octomap::KeyRay ray;  // 100,000 keys: one per call is slow under the sanitizers
   std::vector<VoxelKey> out;
   if (!tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()), octomap::point3d(e.x(), e.y(), e.z()), ray))
     return out;

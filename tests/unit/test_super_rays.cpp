@@ -15,7 +15,9 @@ namespace {
 
 std::vector<octomap::OcTreeKey> octomapCells(const octomap::OcTree& tree, const geometry::Vec3f& o,
                                              const geometry::Vec3f& e) {
-  octomap::KeyRay ray;
+  // One KeyRay for all calls: each holds 100,000 keys, and a fresh one per ray made this file take minutes
+  // under the sanitizers.
+  static thread_local octomap::KeyRay ray;
   tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()), octomap::point3d(e.x(), e.y(), e.z()), ray);
   return {ray.begin(), ray.end()};
 }
