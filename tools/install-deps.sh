@@ -1,10 +1,17 @@
 #!/usr/bin/env bash
-# Installs the Debian packages of tools/apt-packages.txt that are missing (needs root or sudo).
+# Installs the Debian packages that are missing (needs root or sudo): tools/apt-packages.txt (the programs)
+# and tools/apt-packages-dev.txt (what building the tests and measurement programs adds).
+#   tools/install-deps.sh [--tests | --programs]
+# --tests: also tools/apt-packages-test.txt (what only running the tests uses, e.g. tshark for the capture
+# test). --programs: tools/apt-packages.txt only (docker/Dockerfile, which builds no tests).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-# --tests: also tools/apt-packages-test.txt (what only the tests use, e.g. tshark for the capture test).
-lists=("$here/apt-packages.txt")
-[ "${1:-}" = "--tests" ] && lists+=("$here/apt-packages-test.txt")
+case "${1:-}" in
+  "") lists=("$here/apt-packages.txt" "$here/apt-packages-dev.txt") ;;
+  --tests) lists=("$here/apt-packages.txt" "$here/apt-packages-dev.txt" "$here/apt-packages-test.txt") ;;
+  --programs) lists=("$here/apt-packages.txt") ;;
+  *) echo "install-deps: unknown argument '$1' (usage: tools/install-deps.sh [--tests | --programs])" >&2; exit 2 ;;
+esac
 mapfile -t wanted < <(cat "${lists[@]}" | grep -v '^\s*#' | grep -v '^\s*$')
 missing=()
 for p in "${wanted[@]}"; do
