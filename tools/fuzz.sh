@@ -48,26 +48,34 @@ fi
 export ASAN_OPTIONS="${ASAN_OPTIONS:-malloc_context_size=2}"
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(fuzz_*)
-status=0
-for target in "${targets[@]}"; do
-  [ -x "$target" ] || continue
+# One target: its corpus from the seeds, a run, a summary line; exit 1 on a crash. Two at a time (each
+# libFuzzer process uses one core; the machines CI runs on have two).
+fuzz_one() {
+  local target="$1" rc=0 start runs crashes seeds
+  local args=("corpus-$target")
   mkdir -p "corpus-$target"
   for seeds in "$root/tests/fuzz/corpus/$target" "seeds/$target"; do
     [ -d "$seeds" ] && cp -n "$seeds"/* "corpus-$target/" 2> /dev/null || true
   done
-  args=("corpus-$target")
   [ -f "$root/tests/fuzz/$target.dict" ] && args+=("-dict=$root/tests/fuzz/$target.dict")
-  rc=0
   start=$(date +%s)
-  "./$target" "${limit[@]}" -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" \
-    > "$target.log" 2>&1 || rc=$?
+  # shellcheck disable=SC2086 # FUZZ_LIMIT is one flag without spaces
+  "./$target" $FUZZ_LIMIT -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" > "$target.log" 2>&1 || rc=$?
   runs=$(grep -o "stat::number_of_executed_units: [0-9]*" "$target.log" | awk '{print $2}')
   crashes=$(grep -c "Test unit written" "$target.log" || true)
-  echo "fuzz: $target ($what): ${runs:-?} executions in $(( $(date +%s) - start )) s, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
+  echo "fuzz: $target ($FUZZ_WHAT): ${runs:-?} executions in $(( $(date +%s) - start )) s, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
   if [ "$rc" -ne 0 ]; then
     grep -E "ERROR|SUMMARY|runtime error|Test unit written" "$target.log" | head -5
     echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2
-    status=1
+    return 1
   fi
+}
+export -f fuzz_one
+export root FUZZ_LIMIT="${limit[0]}" FUZZ_WHAT="$what"
+status=0
+runnable=()
+for target in "${targets[@]}"; do
+  if [ -f "$target" ] && [ -x "$target" ]; then runnable+=("$target"); fi  # fuzz_* also matches their logs
 done
+printf '%s\n' "${runnable[@]}" | xargs -P 2 -I{} bash -c 'fuzz_one "$1"' _ {} || status=1
 exit $status
