@@ -77,5 +77,6 @@ runnable=()
 for target in "${targets[@]}"; do
   if [ -f "$target" ] && [ -x "$target" ]; then runnable+=("$target"); fi  # fuzz_* also matches their logs
 done
+[ ${#runnable[@]} -gt 0 ] || { echo "fuzz: no built fuzz target among: ${targets[*]}" >&2; exit 1; }
 printf '%s\n' "${runnable[@]}" | xargs -P 2 -I{} bash -c 'fuzz_one "$1"' _ {} || status=1
 exit $status
