@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
+#include <omp.h>
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/map/grid_map.h"
@@ -109,6 +110,38 @@ TEST(TraceRays, BatchWalksMarkExactlyOctomapsCells) {
       }
     }
   }
+}
+
+// Threads of a team mark their own lanes of the free planes (no locked operations), merged after the
+// walks; threads beyond map::ScanEvidence::kMaxFreeLanes mark the shared planes with locked operations.
+// Whatever the team, the cells are OctoMap's, and nothing of one scan's lanes leaks into the next.
+TEST(TraceRays, ThreadTeamsMarkOctomapsCellsAndLeaveNothingForTheNextScan) {
+  const double res = 0.2;
+  octomap::OcTree tree(res);
+  map::GridMap grid(res);
+  Vec3f o_random, o_ties;
+  const std::vector<SuperRay> random = testRays(res, o_random, false);
+  const std::vector<SuperRay> ties = testRays(res, o_ties, true);
+  const std::set<std::uint64_t> expected_random = octomapCells(tree, o_random, random);
+  const std::set<std::uint64_t> expected_ties = octomapCells(tree, o_ties, ties);
+  const int before = omp_get_max_threads();
+  for (int team : {1, 2, 4, map::ScanEvidence::kMaxFreeLanes + 3}) {
+    omp_set_num_threads(team);
+    for (bool backward : {false, true}) {
+      map::ScanEvidence ev;  // reused by both scans, as the engine reuses its own
+      for (int scan = 0; scan < 2; ++scan) {
+        const bool first = scan == 0;
+        const Vec3f& o = first ? o_random : o_ties;
+        resetAround(ev, grid.converter(), o, 1000);
+        TraceOptions opt;
+        opt.backward = backward;
+        traceRays(grid, ev, o, first ? random : ties, opt);
+        EXPECT_EQ(markedFree(ev), first ? expected_random : expected_ties)
+            << team << " threads" << (backward ? " backward" : " forward") << " scan " << scan;
+      }
+    }
+  }
+  omp_set_num_threads(before);
 }
 
 TEST(TraceRays, BackwardBatchWalksStopOnEnteringTheRegion) {

@@ -9,11 +9,14 @@ namespace densemap::map {
 
 static_assert(std::is_trivially_default_constructible_v<BitPlane>);
 
-ScanEvidence::Chunk::Chunk()
+ScanEvidence::Chunk::Chunk(std::size_t index)
     : memory(sizeof(EvidenceBlock) * kChunkBlocks),
       blocks(std::launder(reinterpret_cast<EvidenceBlock*>(memory.data()))) {
   // The mapping is zeroed, which is an empty block: construct the objects in place without touching more.
-  for (std::size_t i = 0; i < kChunkBlocks; ++i) ::new (static_cast<void*>(blocks + i)) EvidenceBlock();
+  for (std::size_t i = 0; i < kChunkBlocks; ++i) {
+    EvidenceBlock* b = ::new (static_cast<void*>(blocks + i)) EvidenceBlock();
+    b->id = static_cast<std::uint32_t>(index * kChunkBlocks + i);
+  }
 }
 
 ScanEvidence::ScanEvidence()
@@ -69,7 +72,7 @@ EvidenceBlock* ScanEvidence::allocate() {
     std::lock_guard<std::mutex> lock(chunk_mutex_);
     chunk = chunk_ptrs_[c].load(std::memory_order_acquire);
     if (chunk == nullptr) {
-      chunks_[c] = std::make_unique<Chunk>();
+      chunks_[c] = std::make_unique<Chunk>(c);
       chunk = chunks_[c].get();
       chunk_ptrs_[c].store(chunk, std::memory_order_release);
     }
@@ -167,6 +170,33 @@ void ScanEvidence::resolveOccupiedWins() {
   }
   for (auto& [key, counts] : overflow_)
     if (counts.second != 0) counts.first = 0;
+}
+
+void ScanEvidence::allocateLane(int lane, std::unique_ptr<BitPlane[]>& planes) {
+  planes = std::make_unique<BitPlane[]>(kChunkBlocks);  // zeroed
+  int used = lanes_used_.load(std::memory_order_relaxed);
+  while (used < lane + 1 && !lanes_used_.compare_exchange_weak(used, lane + 1, std::memory_order_relaxed)) {
+  }
+}
+
+void ScanEvidence::mergeFreeLanes() {
+  const auto lanes = static_cast<std::size_t>(lanes_used_.load(std::memory_order_relaxed));
+  if (lanes == 0) return;
+  const std::size_t n = blockCount();
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) {
+    Chunk* c = chunk_ptrs_[i / kChunkBlocks].load(std::memory_order_relaxed);
+    EvidenceBlock& b = c->blocks[i % kChunkBlocks];
+    for (std::size_t t = 0; t < lanes; ++t) {
+      auto& planes = c->lanes[t];
+      if (!planes) continue;
+      BitPlane& lane = planes[i % kChunkBlocks];
+      for (std::size_t w = 0; w < lane.words.size(); ++w) {
+        b.free.words[w] |= lane.words[w];
+        lane.words[w] = 0;
+      }
+    }
+  }
 }
 
 std::size_t ScanEvidence::blockCount() const { return std::min(used_.load(), capacity()); }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
 
 #include "densemap/geometry/ray_traversal.h"
@@ -22,7 +23,16 @@ enum class StopAt { kNothing, kRegion, kClosed };
 /// tests are those of geometry::walkForward / walkBackwardFrom, so the cells are OctoMap's.
 class BatchMarkingWalk {
  public:
-  explicit BatchMarkingWalk(map::ScanEvidence& ev) : ev_(ev) {}
+  /// Where this thread's marks go: the free planes themselves when it walks alone, its own lane of them
+  /// (map::ScanEvidence::freeLane, merged after the walks) in a team, or locked operations on the free
+  /// planes when the team has more threads than lanes.
+  static constexpr int kAlone = -1, kLocked = -2;
+  static int laneFor(int thread, int team) {
+    if (team <= 1) return kAlone;
+    return thread < map::ScanEvidence::kMaxFreeLanes ? thread : kLocked;
+  }
+
+  BatchMarkingWalk(map::ScanEvidence& ev, int lane) : ev_(ev), lane_(lane) {}
 
   /// geometry::walkForward marking every cell; returns the number of cells marked.
   template <int kSx, int kSy, int kSz>
@@ -33,30 +43,50 @@ class BatchMarkingWalk {
     int kx = r.origin_key[0], ky = r.origin_key[1], kz = r.origin_key[2];
     const int ex = r.end_key[0], ey = r.end_key[1], ez = r.end_key[2];
     const double length = r.length;
+    // Every step moves one cell along the ray's step signs, so the end cell can be reached only after
+    // exactly its L1 distance in steps: one counter replaces the three-way key test of every step.
+    int steps_to_end = std::abs(ex - kx) + std::abs(ey - ky) + std::abs(ez - kz);
     enterBlock(kx, ky, kz);
     unsigned m = static_cast<unsigned>(map::voxelIndexInBlock(r.origin_key));
     mark(m, kx, ky, kz);
     std::uint64_t visits = 1;
-    while (true) {
+    // OctoMap's loop is: step along the axis of least t; stop on the end cell; stop when min(t) > length;
+    // mark. The axis the next step chooses holds min(t), so the length test is made there, before the
+    // mark of the cell it leaves, and the three-way minimum is not computed twice.
+    // kLeave: test and mark the cell being left (every step but the first, whose cell was marked above).
+    auto advance = [&]<bool kLeave>() __attribute__((always_inline))->bool {
+      auto leave = [&](double t) __attribute__((always_inline)) {
+        if constexpr (kLeave) {
+          if (t > length) return false;
+          mark(m, kx, ky, kz);
+          ++visits;
+        }
+        return true;
+      };
       if (tx < ty) {
         if (tx < tz) {
+          if (!leave(tx)) return false;
           step<kSx, kMortonX>(kx, m, kx, ky, kz);
           tx += dx;
         } else {
+          if (!leave(tz)) return false;
           step<kSz, kMortonZ>(kz, m, kx, ky, kz);
           tz += dz;
         }
       } else if (ty < tz) {
+        if (!leave(ty)) return false;
         step<kSy, kMortonY>(ky, m, kx, ky, kz);
         ty += dy;
       } else {
+        if (!leave(tz)) return false;
         step<kSz, kMortonZ>(kz, m, kx, ky, kz);
         tz += dz;
       }
-      if (kx == ex && ky == ey && kz == ez) break;
-      if (std::min(std::min(tx, ty), tz) > length) break;
-      mark(m, kx, ky, kz);
-      ++visits;
+      return !(--steps_to_end == 0 && kx == ex && ky == ey && kz == ez);
+    };
+    if (advance.template operator()<false>()) {
+      while (advance.template operator()<true>()) {
+      }
     }
     return visits;
   }
@@ -142,18 +172,29 @@ class BatchMarkingWalk {
         enterBlock(kx, ky, kz);
     }
   }
-  [[gnu::always_inline]] void enterBlock(int kx, int ky, int kz) { block_ = ev_.findBlock(key(kx, ky, kz)); }
+  [[gnu::always_inline]] void enterBlock(int kx, int ky, int kz) {
+    block_ = ev_.findBlock(key(kx, ky, kz));
+    plane_ = block_ != nullptr ? planeOf(*block_) : nullptr;
+  }
+  [[gnu::always_inline]] map::BitPlane* planeOf(map::EvidenceBlock& b) {
+    if (lane_ >= 0) return &ev_.freeLane(lane_, b);
+    return lane_ == kAlone ? &b.free : nullptr;
+  }
   [[gnu::always_inline]] void mark(unsigned m, int kx, int ky, int kz) {
-    if (block_ != nullptr) [[likely]] {
-      block_->free.setAtomic(static_cast<int>(m));
+    if (plane_ != nullptr) [[likely]] {
+      plane_->set(static_cast<int>(m));  // no other thread writes this plane during the walks
     } else {
       markSlow(kx, ky, kz);
     }
   }
-  /// First mark in a block this scan (allocates it), or a cell outside the scan's box (overflow map).
+  /// First mark in a block this scan (allocates it), a cell outside the scan's box (overflow map), or a
+  /// thread without a lane.
   [[gnu::noinline, gnu::cold]] void markSlow(int kx, int ky, int kz) {
     const geometry::VoxelKey k = key(kx, ky, kz);
-    if ((block_ = ev_.block(k)) != nullptr) {
+    if (block_ == nullptr && (block_ = ev_.block(k)) != nullptr) plane_ = planeOf(*block_);
+    if (plane_ != nullptr) {
+      plane_->set(map::voxelIndexInBlock(k));
+    } else if (block_ != nullptr) {
       block_->free.setAtomic(map::voxelIndexInBlock(k));
     } else {
       ev_.markFree(k);
@@ -165,7 +206,9 @@ class BatchMarkingWalk {
   }
 
   map::ScanEvidence& ev_;
+  int lane_;
   map::EvidenceBlock* block_ = nullptr;
+  map::BitPlane* plane_ = nullptr;  // where marks in block_ go; null: markSlow decides
 };
 
 /// Calls f.template operator()<kSx, kSy, kSz>() with the ray's step signs (an axis with no step gets +1).

@@ -4,6 +4,8 @@
 #include <bit>
 #include <cstdlib>
 
+#include <omp.h>
+
 #include "batch_marking_walk.h"
 #include "densemap/geometry/ray_traversal.h"
 
@@ -56,7 +58,8 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
 #pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
   {
     Marker<kCountUnnecessary, kCounting> mark(map, ev);
-    [[maybe_unused]] BatchMarkingWalk fast(ev);
+    [[maybe_unused]] BatchMarkingWalk fast(
+        ev, BatchMarkingWalk::laneFor(omp_get_thread_num(), omp_get_num_threads()));
     geometry::WalkStats ws;
 #pragma omp for schedule(dynamic, 256) nowait
     for (std::size_t i = 0; i < rays.size(); ++i) {
@@ -105,6 +108,7 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     unnecessary += mark.useless;
     fallbacks += ws.fallbacks;
   }
+  if constexpr (!kCounting && !kCountUnnecessary) ev.mergeFreeLanes();
   return {traversed, fallbacks, unnecessary};
 }
 

@@ -105,7 +105,8 @@ struct EvidenceBlock {
     std::array<std::uint32_t, kBlockVoxels> n_hit;
   };
   Counters* counters = nullptr;
-  VoxelKey base;  ///< key of the block's lowest voxel
+  VoxelKey base;         ///< key of the block's lowest voxel
+  std::uint32_t id = 0;  ///< allocation index in its ScanEvidence (its free lanes' index)
   bool installed = false;
 
   void clear(bool clear_counters, bool regions = true) {
@@ -209,6 +210,23 @@ class ScanEvidence {
   /// Batch semantics: a cell both hit and crossed in one scan counts as hit only ("occupied wins").
   void resolveOccupiedWins();
 
+  /// Free lanes: a team of threads marking free cells, each in its own copy of the blocks' free planes, so
+  /// that no mark needs a locked instruction (shared planes need one for each cell's first mark of a scan).
+  /// Thread `lane` (< kMaxFreeLanes; more threads mark the shared planes with locked operations) owns its
+  /// lane; the caller merges after the team has finished, before anything reads the free planes. Each lane
+  /// costs a free plane per block (a sixth of a block), so their number is capped.
+  static constexpr int kMaxFreeLanes = 16;
+  BitPlane& freeLane(int lane, const EvidenceBlock& b) {
+    auto& planes = chunk_ptrs_[b.id / kChunkBlocks]
+                       .load(std::memory_order_relaxed)
+                       ->lanes[static_cast<std::size_t>(lane)];
+    if (!planes) [[unlikely]]
+      allocateLane(lane, planes);
+    return planes[b.id % kChunkBlocks];
+  }
+  /// ORs every lane into the blocks' free planes and clears the lanes.
+  void mergeFreeLanes();
+
  private:
   static constexpr std::size_t kChunkBlocks = 1024;
   static constexpr std::size_t kMaxChunks = 4096;
@@ -218,7 +236,10 @@ class ScanEvidence {
     util::HugePageBuffer memory;
     EvidenceBlock* blocks;
     std::unique_ptr<std::array<EvidenceBlock::Counters, kChunkBlocks>> counters;  // counting semantics
-    Chunk();
+    /// Lane t's free planes of this chunk's blocks, allocated by thread t on its first mark here; all zero
+    /// between scans (the merge clears them).
+    std::array<std::unique_ptr<BitPlane[]>, kMaxFreeLanes> lanes;
+    explicit Chunk(std::size_t index);
   };
   std::size_t capacity() const { return kChunkBlocks * kMaxChunks; }
   EvidenceBlock* allocate();
@@ -237,6 +258,7 @@ class ScanEvidence {
     return &directory_[idx];
   }
   void addOverflow(const VoxelKey& key, std::uint32_t nf, std::uint32_t nh, bool saturate);
+  [[gnu::noinline, gnu::cold]] void allocateLane(int lane, std::unique_ptr<BitPlane[]>& planes);
 
   bool counting_ = false;
   bool counters_dirty_ = false;  // counters of reused blocks may be non-zero
@@ -257,6 +279,7 @@ class ScanEvidence {
   std::atomic<std::size_t> used_{0};
   std::mutex chunk_mutex_;
   std::mutex overflow_mutex_;
+  std::atomic<int> lanes_used_{0};  // 1 + the highest lane ever allocated
   std::unordered_map<VoxelKey, std::pair<std::uint32_t, std::uint32_t>, geometry::VoxelKeyHash> overflow_;
 };
 
