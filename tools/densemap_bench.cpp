@@ -20,6 +20,7 @@
 #include "densemap/cli/cli_common.h"
 #include "densemap/cli/common_options.h"
 #include "densemap/cli/option_cli.h"
+#include "densemap/eval/paired_timing.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
@@ -176,9 +177,11 @@ MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string&
   MethodRun r;
   r.map = makeMap(backend, res);
   update::UpdateEngine engine(opt);
+  std::map<update::UpdateMethod, int> ran;
   for (const auto& s : scans) {
     auto st = engine.insert(*r.map, s.points, s.origin);
     if (!st) throw std::runtime_error("scan rejected: sensor origin outside the map");
+    ++ran[st->method];
     r.scan_ms.push_back(st->totalMs());
     r.sum.points += st->points;
     r.sum.rays += st->rays;
@@ -193,7 +196,16 @@ MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string&
     r.sum.generation_ms += st->generation_ms;
     r.sum.update_ms += st->update_ms;
   }
-  if (opt.method == update::UpdateMethod::kFastest) r.chosen = engine.chooser().summary();
+  if (opt.method == update::UpdateMethod::kFastest) {
+    // What ran, most scans first (the chooser's own counts leave out the scans it was not asked about).
+    std::vector<std::pair<int, update::UpdateMethod>> order;
+    for (auto m : update::kAllMethods) order.emplace_back(ran.count(m) ? ran[m] : 0, m);
+    std::stable_sort(order.begin(), order.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (const auto& [count, m] : order)
+      r.chosen +=
+          (r.chosen.empty() ? "" : ", ") + std::string(update::toString(m)) + " " + std::to_string(count);
+  }
   return r;
 }
 
@@ -245,11 +257,13 @@ int main(int argc, char** argv) {
   app.add_option("--max-range", max_range, "cut rays at this range (<0: unlimited)")->capture_default_str();
   app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
       ->capture_default_str();
-  app.add_option("--repeat", repeat,
-                 "runs per configuration, each starting the methods one further along (a multiple of the "
-                 "number of methods gives each method every place in the order); medians and median ratios "
-                 "are reported, and with 2 or more, whether fastest is slower than the best of the four by "
-                 "more than the best's own interquartile spread over the repeats")
+  app.add_option(
+         "--repeat", repeat,
+         "runs per configuration, each starting the methods one further along (a multiple of the "
+         "number of methods gives each method every place in the order); medians and median ratios "
+         "are reported, and with 2 or more, whether fastest is slower than the best of the four by "
+         "more than the best's own interquartile spread over the repeats, and (paired, sign test; 5 or "
+         "more repeats can show it) whether it is measurably slower than any of the four")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   app.add_option("--realtime", realtime,
@@ -334,12 +348,17 @@ int main(int argc, char** argv) {
       for (int rep = 0; rep < repeat; ++rep) {
         // Each repetition starts the methods one further along, so that no method always runs last: a run's
         // place in the sequence matters on the octree (kitti00 0-59 at 0.1 m: fastest alone 148-152 ms per
-        // scan, run fifth 164-165; likely the heap the earlier maps left, not isolated). --repeat N with N a
-        // multiple of the methods' count gives every method every place.
+        // scan, run fifth 164-165; likely the heap the earlier maps left, not isolated). Every other
+        // repetition runs them in reverse, so that no method always runs just after the same other one
+        // (rotation alone put fastest just before baseline in 4 of 5 repetitions, and when both run the
+        // baseline the second was the faster: 4 of 32 cells "measurably" apart). --repeat N with N a
+        // multiple of twice the methods' count gives every method every place and every neighbour.
         std::vector<update::UpdateMethod> order = method_list;
-        if (!order.empty())
-          std::rotate(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(rep % order.size()),
+        if (!order.empty()) {
+          std::rotate(order.begin(), order.begin() + static_cast<std::ptrdiff_t>((rep / 2) % order.size()),
                       order.end());
+          if (rep % 2 == 1) std::reverse(order.begin(), order.end());
+        }
         for (const auto& backend : backend_list) {
           std::unique_ptr<map::OccupancyMap> baseline_map;
           for (auto m : order) {
@@ -465,6 +484,12 @@ int main(int argc, char** argv) {
           const double vs_best = total / best_ms;
           const double spread = judged && repeat > 1 ? relativeSpread(acc[{backend, best}].total_ms) : 0.0;
           const bool slower = vs_best > 1.0 + spread;
+          // The unbiased verdict: fastest against each of the four in the same repetitions (sign test).
+          std::vector<std::pair<update::UpdateMethod, eval::PairedTiming>> paired;
+          if (judged)
+            for (auto other : method_list)
+              if (other != update::UpdateMethod::kFastest)
+                paired.emplace_back(other, eval::comparePaired(a.total_ms, acc[{backend, other}].total_ms));
           if (json) {
             nlohmann::json j = {
                 {"method", update::toString(m)},
@@ -488,7 +513,8 @@ int main(int argc, char** argv) {
                 {"speedup_vs_octomap", median(a.ratio)},
                 {"octomap_ms", octo / n},
                 {"threads", used_threads},
-                {"repeat", repeat}};
+                {"repeat", repeat},
+                {"total_ms_by_repeat", a.total_ms}};
             if (!no_unnecessary) {
               j["unnecessary"] = a.stats.unnecessary;
               j["updated_cells"] = a.stats.updated_cells;
@@ -502,6 +528,16 @@ int main(int argc, char** argv) {
               if (repeat > 1) {
                 j["best_of_four_spread"] = spread;
                 j["slower_than_best_beyond_spread"] = slower;
+                nlohmann::json vs = nlohmann::json::object(), measurably = nlohmann::json::array();
+                for (const auto& [other, t] : paired) {
+                  vs[std::string(update::toString(other))] = {{"median_ratio", t.median_ratio},
+                                                              {"slower_rounds", t.slower_rounds},
+                                                              {"rounds", t.rounds},
+                                                              {"p_value", t.p_value}};
+                  if (t.measurablySlower()) measurably.push_back(update::toString(other));
+                }
+                j["paired_vs"] = vs;
+                j["measurably_slower_than"] = measurably;
               }
             }
             if (realtime > 0) j["realtime_used"] = realtimeUsed(a.scan_ms, realtime);
@@ -529,6 +565,20 @@ int main(int argc, char** argv) {
                             std::string(update::toString(best)).c_str(), repeat, 100.0 * spread,
                             slower ? "SLOWER beyond the noise" : "within the noise");
               std::printf("\n");
+              if (repeat > 1) {
+                std::printf(
+                    "          paired over the %d repeats (fastest/other, rounds slower, sign test p):",
+                    repeat);
+                bool any = false;
+                for (const auto& [other, t] : paired) {
+                  std::printf(" %s %.3f %d/%d p=%.3f%s", std::string(update::toString(other)).c_str(),
+                              t.median_ratio, t.slower_rounds, t.rounds, t.p_value,
+                              t.measurablySlower() ? " SLOWER" : "");
+                  any |= t.measurablySlower();
+                }
+                std::printf("; %s\n",
+                            any ? "measurably slower than one of them" : "not measurably slower than any");
+              }
             }
           }
         }

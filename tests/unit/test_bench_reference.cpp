@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "densemap/eval/paired_timing.h"
 #include "run_command.h"
 
 namespace {
@@ -91,6 +92,16 @@ TEST(BenchReference, FastestIsJudgedAgainstTheBestsOwnSpread) {
     EXPECT_GE(spread, 0.0) << backend;
     EXPECT_EQ(j.at("slower_than_best_beyond_spread").get<bool>(), ratio > 1.0 + spread) << j.dump();
     EXPECT_NE(j.at("best_of_four"), "fastest");
+    // Paired against each of the four over the same 4 repetitions (sign test; 4 rounds cannot reach 5%).
+    ASSERT_TRUE(j.contains("paired_vs")) << j.dump();
+    ASSERT_EQ(j.at("paired_vs").size(), 4u) << j.dump();
+    for (const auto& [other, t] : j.at("paired_vs").items()) {
+      EXPECT_EQ(t.at("rounds").get<int>(), 4) << other;
+      const int k = t.at("slower_rounds").get<int>();
+      EXPECT_DOUBLE_EQ(t.at("p_value").get<double>(), densemap::eval::signTestPValue(k, 4)) << other;
+      EXPECT_GT(t.at("median_ratio").get<double>(), 0.0) << other;
+    }
+    EXPECT_TRUE(j.at("measurably_slower_than").empty()) << j.dump();
   }
   // One run has no spread, so no verdict either.
   const std::string once = run(command + "1", status);

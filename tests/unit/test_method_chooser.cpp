@@ -3,7 +3,9 @@
 // builds is the baseline's.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
+#include <vector>
 
 #include "densemap/io/lidar_simulator.h"
 #include "densemap/map/grid_map.h"
@@ -133,7 +135,8 @@ TEST(MethodChooser, TheFastestMethodBuildsTheBaselinesMapAndSaysWhatItRan) {
     base.method = UpdateMethod::kBaseline;
     UpdateOptions fast;  // the default
     ASSERT_EQ(fast.method, UpdateMethod::kFastest);
-    fast.chooser.probe_after = 2;  // let all four run within a short test
+    fast.chooser.min_saving_to_measure = 0.0;  // consult the chooser for every scan
+    fast.chooser.probe_after = 2;              // let all four run within a short test
     fast.chooser.probe_interval = 2;
     // and pay for them whatever the timings (a budget tied to measured times made this test depend on
     // the machine's load: under load superrays was never tried in 12 scans)
@@ -159,6 +162,65 @@ TEST(MethodChooser, TheFastestMethodBuildsTheBaselinesMapAndSaysWhatItRan) {
     std::uint64_t counted = 0;
     for (UpdateMethod m : kAllMethods) counted += b.chooser().scans(m);
     EXPECT_EQ(counted, 12u);
+  }
+}
+
+/// A scan of `rays` directions from the origin to a wall `range` metres away along x, each direction hit by
+/// `per_cell` points inside one cell of size `res` (so `per_cell` points per endpoint cell).
+std::vector<geometry::Vec3f> wallScan(int rays, int per_cell, double range, double res) {
+  std::vector<geometry::Vec3f> pts;
+  const int side = static_cast<int>(std::sqrt(static_cast<double>(rays)));
+  for (int i = 0; i < side; ++i)
+    for (int j = 0; j < side; ++j)
+      for (int p = 0; p < per_cell; ++p) {
+        // Cell centres 3 cells apart on the wall, the points spread within +-0.3 of a cell around them.
+        const double y = (i - side / 2) * 3.0 * res + res * (0.5 + 0.3 * std::sin(p * 1.7));
+        const double z = (j - side / 2) * 3.0 * res + res * (0.5 + 0.3 * std::cos(p * 2.3));
+        pts.emplace_back(static_cast<float>(range + 0.5 * res), static_cast<float>(y), static_cast<float>(z));
+      }
+  return pts;
+}
+
+TEST(MethodChooser, TheDefaultRunsTheBaselineWhereSuperRaysCannotSaveAndMeasuresWhereTheyCould) {
+  const double res = 0.1;
+  const geometry::Vec3f origin(0.05f, 0.05f, 0.05f);
+  // Walks of 100-160 cells either way; one point per endpoint cell saves nothing, 20 save 95% of a walk.
+  const std::vector<geometry::Vec3f> sparse = wallScan(400, 1, 10.0, res),
+                                     dense = wallScan(400, 20, 10.0, res);
+  for (const bool is_dense : {false, true}) {
+    auto m = map::makeMap({"grid", res, {}});
+    UpdateEngine engine;  // the default options
+    ASSERT_EQ(engine.options().method, UpdateMethod::kFastest);
+    std::map<UpdateMethod, int> ran;
+    int consulted = 0;
+    for (int scan = 0; scan < 8; ++scan) {
+      const auto st = engine.insert(*m, is_dense ? dense : sparse, origin);
+      ASSERT_TRUE(st);
+      ++ran[st->method];
+      consulted += st->chooser_consulted ? 1 : 0;
+      // 100 cells along x plus the L1 offsets across the wall (up to 30 cells each way in y and z).
+      EXPECT_GT(st->walk_cells_per_ray, 110.0);
+      EXPECT_LT(st->walk_cells_per_ray, 160.0);
+      EXPECT_EQ(st->end_cells, 400u);
+      // The rule's input and its threshold.
+      EXPECT_NEAR(st->super_ray_saving, st->walk_cells_per_ray * (is_dense ? 0.95 : 0.0), 1e-9);
+      EXPECT_EQ(st->super_ray_saving >= engine.options().chooser.min_saving_to_measure, is_dense);
+    }
+    if (is_dense) {
+      // The first scan has nothing to go on (baseline); from the second the chooser decides and tries the
+      // cheap methods first (baseline and culling, twice each).
+      EXPECT_EQ(consulted, 7);
+      EXPECT_GE(ran[UpdateMethod::kCullingRegion], 1);
+      EXPECT_EQ(engine.chooser().scans(UpdateMethod::kBaseline) +
+                    engine.chooser().scans(UpdateMethod::kCullingRegion) +
+                    engine.chooser().scans(UpdateMethod::kSuperRays) +
+                    engine.chooser().scans(UpdateMethod::kSuperRaysCulling),
+                7u);
+    } else {
+      EXPECT_EQ(consulted, 0);
+      EXPECT_EQ(ran[UpdateMethod::kBaseline], 8) << "no tries where super rays cannot save";
+      EXPECT_EQ(engine.chooser().scans(UpdateMethod::kBaseline), 0u) << "the chooser was not consulted";
+    }
   }
 }
 

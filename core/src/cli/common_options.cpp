@@ -106,8 +106,8 @@ OptionTable updateOptions(update::UpdateOptions& o) {
        {"culling", update::UpdateMethod::kCullingRegion},
        {"superrays+culling", update::UpdateMethod::kSuperRaysCulling}},
       "update method; all give the same map (super rays Sec. 2.3.1-2.3.4, culling region Sec. 2.3.5). "
-      "fastest: "
-      "per scan whichever of the four is measured fastest on the scans so far (cheap ones tried first)");
+      "fastest: the baseline, unless the scans are dense enough for super rays to save walking (then per "
+      "scan whichever of the four is measured fastest so far)");
   t.addChoice("semantics", o.semantics,
               {{"batch", map::UpdateSemantics::kBatch}, {"counting", map::UpdateSemantics::kCounting}},
               "batch (OctoMap's insertPointCloud) or counting (Sec. 2.3.4)");

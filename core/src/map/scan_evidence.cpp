@@ -199,6 +199,12 @@ void ScanEvidence::mergeFreeLanes() {
   }
 }
 
+std::uint64_t ScanEvidence::overflowHitCells() const {
+  std::uint64_t cells = 0;
+  for (const auto& [key, counts] : overflow_) cells += counts.second != 0 ? 1 : 0;
+  return cells;
+}
+
 std::size_t ScanEvidence::blockCount() const { return std::min(used_.load(), capacity()); }
 
 const EvidenceBlock& ScanEvidence::blockAt(std::size_t i) const {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/culling_region.h"
@@ -64,10 +65,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   clipped_.resize(n);
   kind_.resize(n);
   keys_.resize(n);
-  std::uint64_t rejected = 0, cut = 0;
+  std::uint64_t rejected = 0, cut = 0, walk_cells = 0;
   int blo[3] = {origin_key[0], origin_key[1], origin_key[2]}, bhi[3] = {blo[0], blo[1], blo[2]};
   // Range cut, key range check and bounding box, in parallel; then compacted in input order.
-#pragma omp parallel for schedule(static) reduction(+ : rejected, cut) reduction(min : blo[:3]) \
+#pragma omp parallel for schedule(static) reduction(+ : rejected, cut, walk_cells) reduction(min : blo[:3]) \
     reduction(max : bhi[:3])
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3f& p = points[i];
@@ -86,6 +87,9 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     for (int a = 0; a < 3; ++a) {
       blo[a] = std::min<int>(blo[a], k[a]);
       bhi[a] = std::max<int>(bhi[a], k[a]);
+      // A forward walk takes exactly this many steps (geometry/ray_traversal.h).
+      walk_cells +=
+          static_cast<std::uint64_t>(std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
     }
     clipped_[i] = c.end;
     keys_[i] = k;  // the endpoint's cell, marked occupied after the walks
@@ -119,7 +123,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.prepare_ms = msSince(t0);
   const auto tg = Clock::now();
 
-  const UpdateMethod method = options_.method == UpdateMethod::kFastest ? chooser_.next() : options_.method;
+  const bool fastest = options_.method == UpdateMethod::kFastest;
+  st.chooser_consulted = fastest && (consult_chooser_ || options_.chooser.min_saving_to_measure <= 0.0);
+  const UpdateMethod method =
+      !fastest ? options_.method : (st.chooser_consulted ? chooser_.next() : UpdateMethod::kBaseline);
   st.method = method;
   const bool use_super = method == UpdateMethod::kSuperRays || method == UpdateMethod::kSuperRaysCulling;
   const bool use_culling =
@@ -177,22 +184,29 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   const auto ta = Clock::now();
   map::ScanEvidence& ev = evidence_;
   // Occupied endpoints (after the free pass, as in OctoMap; the semantics decide how they combine).
-#pragma omp parallel
+  std::uint64_t end_cells = 0;  // distinct, for the default method's rule below
+#pragma omp parallel reduction(+ : end_cells)
   {
     map::EvidenceCursor cursor(ev);
     const std::vector<VoxelKey>& end_keys = end_keys_;
 #pragma omp for schedule(static) nowait
     for (std::size_t i = 0; i < end_keys.size(); ++i) {
       const VoxelKey& k = end_keys[i];
-      if (counting) {
-        cursor.addHit(k, 1);
-      } else {
-        cursor.markHit(k);
-      }
+      end_cells += (counting ? cursor.addHit(k, 1) : cursor.markHit(k)) ? 1 : 0;
     }
   }
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.
   if (!counting) ev.resolveOccupiedWins();
+  // What decides whether the next scan consults the chooser (MethodChooserOptions::min_saving_to_measure).
+  if (fastest) {
+    st.end_cells = end_cells + ev.overflowHitCells();
+    const std::uint64_t walked = n - rejected;
+    st.walk_cells_per_ray = walked ? static_cast<double>(walk_cells) / static_cast<double>(walked) : 0.0;
+    const double ends_n = static_cast<double>(ends.size());
+    st.super_ray_saving =
+        ends.empty() ? 0.0 : st.walk_cells_per_ray * (1.0 - static_cast<double>(st.end_cells) / ends_n);
+    consult_chooser_ = st.super_ray_saving >= options_.chooser.min_saving_to_measure;
+  }
   double counting_ms = 0.0;
   if (options_.count_cells) {
     const auto tc0 = Clock::now();
@@ -228,8 +242,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.unnecessary = tc.unnecessary;
   // Applying the evidence is the same work whichever method made it (and may wait for readers' lock), so
   // the choice compares the rest.
-  if (options_.method == UpdateMethod::kFastest)
-    chooser_.record(method, st.totalMs() - st.apply_ms, st.points);
+  if (st.chooser_consulted) chooser_.record(method, st.totalMs() - st.apply_ms, st.points);
   return st;
 }
 

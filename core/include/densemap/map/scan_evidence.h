@@ -72,10 +72,12 @@ struct BitPlane {
   void set(int i) { words[static_cast<std::size_t>(i >> 6)] |= std::uint64_t{1} << (i & 63); }
   void reset(int i) { words[static_cast<std::size_t>(i >> 6)] &= ~(std::uint64_t{1} << (i & 63)); }
   /// Thread-safe set: a plain load first, so already-set bits (the common case) cost no locked operation.
-  [[gnu::always_inline]] void setAtomic(int i) {
+  /// True when this call set the bit.
+  [[gnu::always_inline]] bool setAtomic(int i) {
     std::atomic_ref<std::uint64_t> w(words[static_cast<std::size_t>(i >> 6)]);
     const std::uint64_t bit = std::uint64_t{1} << (i & 63);
-    if (!(w.load(std::memory_order_relaxed) & bit)) w.fetch_or(bit, std::memory_order_relaxed);
+    if (w.load(std::memory_order_relaxed) & bit) return false;
+    return !(w.fetch_or(bit, std::memory_order_relaxed) & bit);
   }
   [[gnu::always_inline]] bool testAtomic(int i) const {
     return (std::atomic_ref<const std::uint64_t>(words[static_cast<std::size_t>(i >> 6)])
@@ -209,6 +211,9 @@ class ScanEvidence {
 
   /// Batch semantics: a cell both hit and crossed in one scan counts as hit only ("occupied wins").
   void resolveOccupiedWins();
+  /// Distinct cells outside the box holding at least one endpoint (the cursor's markHit / addHit count
+  /// those inside).
+  std::uint64_t overflowHitCells() const;
 
   /// Free lanes: a team of threads marking free cells, each in its own copy of the blocks' free planes, so
   /// that no mark needs a locked instruction (shared planes need one for each cell's first mark of a scan).
@@ -322,22 +327,23 @@ class EvidenceCursor {
       markOverflow(key, false);
     }
   }
-  [[gnu::always_inline]] void markHit(const VoxelKey& key) {
-    if (EvidenceBlock* b = get(key)) [[likely]] {
-      b->hit.setAtomic(voxelIndexInBlock(key));
-    } else {
-      markOverflow(key, true);
-    }
+  /// True when the cell had no hit yet this scan (inside the box; cells outside it: false).
+  [[gnu::always_inline]] bool markHit(const VoxelKey& key) {
+    if (EvidenceBlock* b = get(key)) [[likely]]
+      return b->hit.setAtomic(voxelIndexInBlock(key));
+    markOverflow(key, true);
+    return false;
   }
-  [[gnu::always_inline]] void addHit(const VoxelKey& key, std::uint32_t w) {
+  /// True as markHit.
+  [[gnu::always_inline]] bool addHit(const VoxelKey& key, std::uint32_t w) {
     if (EvidenceBlock* b = get(key)) {
       const int i = voxelIndexInBlock(key);
       std::atomic_ref<std::uint32_t>(b->counters->n_hit[static_cast<std::size_t>(i)])
           .fetch_add(w, std::memory_order_relaxed);
-      b->hit.setAtomic(i);
-    } else {
-      ev_.addHit(key, w);
+      return b->hit.setAtomic(i);
     }
+    ev_.addHit(key, w);
+    return false;
   }
   [[gnu::always_inline]] void addFree(const VoxelKey& key, std::uint32_t w) {
     if (EvidenceBlock* b = get(key)) {

@@ -2,10 +2,12 @@
 // (Ch. 2; tests/unit/test_exactness.cpp), so the choice changes only the time, and the time depends on the
 // data: outdoors at 0.2 m a super ray carries ~1.04 points and costs more than it saves (Table 2.2 gives
 // 1.6 points), while dense indoor scans, coarse voxels and densified scans group many points per ray.
-// A scan's cost is known only after running it, so the choice is measured rather than predicted: the cheap
-// methods (baseline, culling) are tried first, twice each (a run's first scan is a cold one), the super-ray
-// ones no earlier than `probe_after` scans, each loser again after an interval that doubles every time it
-// loses, and the method with the lowest smoothed time per point runs the other scans.
+// The engine asks it only about scans dense enough for super rays to save walking (min_saving_to_measure;
+// other scans run the baseline). A scan's cost is known only after running it, so its choice is measured
+// rather than predicted: the cheap methods (baseline, culling) are tried first, twice each (a run's first
+// scan is a cold one), the super-ray ones no earlier than `probe_after` scans, each loser again after an
+// interval that doubles every time it loses, and the method with the lowest smoothed time per point runs
+// the other scans.
 // Tries are paid from an exploration budget: every scan adds `probe_budget` of the fastest method's time,
 // and a method other than the fastest runs only when the budget holds what it is expected to cost beyond
 // the fastest (an untried super-ray method: `untried_extra` of the fastest's time). So trying costs at most
@@ -21,6 +23,14 @@
 namespace densemap::update {
 
 struct MethodChooserOptions {
+  /// The chooser is consulted only for scans whose previous scan could let super rays save at least this
+  /// many walked cells per point (mean walk length x (1 - end cells / points)); other scans run the
+  /// baseline without tries. Measured here (docs/BENCHMARKS.md, issue 24): super rays took 1.31x the
+  /// baseline's time where they could save 15.6 cells per point (kitti00, 0.8 m), so building them costs
+  /// about 25 cells of walking per point; on kitti00, hilti2023, la3dm and the simulator at 0.1-0.8 m no
+  /// method was faster than the baseline in all repetitions of a run, and tries made the default slower.
+  /// 0: always consult.
+  double min_saving_to_measure = 30.0;
   std::uint64_t probe_after = 20;  ///< scans before the super-ray methods are first tried (at the earliest)
   std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries, at least (doubles per loss)
   std::uint64_t max_interval = 640;   ///< the doubling stops here

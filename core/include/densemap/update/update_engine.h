@@ -20,8 +20,9 @@
 namespace densemap::update {
 
 struct UpdateOptions {
-  /// kFastest (the default) measures the four and runs the fastest (update/method_chooser.h); a concrete
-  /// method forces it.
+  /// kFastest (the default) runs the baseline, or, when the scans could let super rays save enough walking
+  /// (MethodChooserOptions::min_saving_to_measure), measures the four and runs the fastest
+  /// (update/method_chooser.h); a concrete method forces it.
   UpdateMethod method = UpdateMethod::kFastest;
   MethodChooserOptions chooser{};
   map::UpdateSemantics semantics = map::UpdateSemantics::kBatch;
@@ -58,6 +59,13 @@ struct UpdateStats {
   std::uint64_t region_cells = 0;  ///< culling region size
   std::uint64_t closed_cells = 0;  ///< in-scan closed region size (batch semantics, culling methods)
   std::uint64_t fallbacks = 0;     ///< backward walks finished forward because of a rounding tie
+  /// What kFastest's choice for the next scan rests on: the cells walked per ray (the mean L1 distance from
+  /// the sensor's cell to the endpoints' cells) and the distinct endpoint cells (rays with endpoints only).
+  double walk_cells_per_ray = 0.0;
+  std::uint64_t end_cells = 0;
+  /// Walked cells per point that super rays could save: walk_cells_per_ray x (1 - end_cells / endpoints).
+  double super_ray_saving = 0.0;
+  bool chooser_consulted = false;  ///< kFastest: this scan's method came from the chooser (else baseline)
   double prepare_ms = 0.0;         ///< validation, range cuts, bounding box (part of update_ms)
   double trace_ms = 0.0;           ///< ray traversals (part of update_ms)
   double apply_ms = 0.0;           ///< endpoints + applying the evidence to the map (part of update_ms)
@@ -88,6 +96,7 @@ class UpdateEngine {
  private:
   UpdateOptions options_;
   MethodChooser chooser_;
+  bool consult_chooser_ = false;  // kFastest: the previous scan's super_ray_saving reached the threshold
   map::ScanEvidence evidence_;
   SuperRayGenerator generator_;
   // Per-scan buffers kept between scans (large, so reallocating them would page-fault every scan).
