@@ -169,7 +169,8 @@ struct MethodRun {
   std::unique_ptr<map::OccupancyMap> map;
   update::UpdateStats sum;
   std::vector<double> scan_ms;
-  std::string chosen;  ///< with `fastest`: scans per method it ran
+  std::string chosen;       ///< with `fastest`: scans per method it ran
+  double max_saving = 0.0;  ///< with `fastest`: the largest UpdateStats::super_ray_saving of the scans
 };
 
 MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string& backend, double res,
@@ -182,6 +183,7 @@ MethodRun runMethod(const std::vector<cli::WorldScan>& scans, const std::string&
     auto st = engine.insert(*r.map, s.points, s.origin);
     if (!st) throw std::runtime_error("scan rejected: sensor origin outside the map");
     ++ran[st->method];
+    r.max_saving = std::max(r.max_saving, st->super_ray_saving);
     r.scan_ms.push_back(st->totalMs());
     r.sum.points += st->points;
     r.sum.rays += st->rays;
@@ -341,6 +343,7 @@ int main(int argc, char** argv) {
         bool identical = true;
         std::string why;
         std::vector<std::string> chosen;  ///< fastest: what it ran, per repetition
+        double max_saving = 0.0;          ///< fastest: the rule's largest input
       };
       std::map<std::pair<std::string, update::UpdateMethod>, Acc> acc;
       std::vector<double> octo_scan_ms;
@@ -385,6 +388,7 @@ int main(int argc, char** argv) {
             a.update_ms.push_back(r.sum.update_ms);
             if (graph) a.ratio.push_back(o.total_ms / total);
             if (!r.chosen.empty()) a.chosen.push_back(r.chosen);
+            a.max_saving = std::max(a.max_saving, r.max_saving);
             if (rep > 0) continue;
             a.stats = r.sum;
             a.scan_ms = r.scan_ms;
@@ -521,7 +525,10 @@ int main(int argc, char** argv) {
               j["changed_cells"] = a.stats.changed_cells;
               j["traversed_per_changed_cell"] = per_cell;
             }
-            if (!a.chosen.empty()) j["chosen"] = a.chosen;
+            if (!a.chosen.empty()) {
+              j["chosen"] = a.chosen;
+              j["max_super_ray_saving"] = a.max_saving;
+            }
             if (judged) {
               j["best_of_four"] = update::toString(best);
               j["time_vs_best_of_four"] = vs_best;

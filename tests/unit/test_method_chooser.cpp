@@ -184,9 +184,9 @@ std::vector<geometry::Vec3f> wallScan(int rays, int per_cell, double range, doub
 TEST(MethodChooser, TheDefaultRunsTheBaselineWhereSuperRaysCannotSaveAndMeasuresWhereTheyCould) {
   const double res = 0.1;
   const geometry::Vec3f origin(0.05f, 0.05f, 0.05f);
-  // Walks of 100-160 cells either way; one point per endpoint cell saves nothing, 20 save 95% of a walk.
-  const std::vector<geometry::Vec3f> sparse = wallScan(400, 1, 10.0, res),
-                                     dense = wallScan(400, 20, 10.0, res);
+  // Walks of 210-270 cells either way; one point per endpoint cell saves nothing, 20 save 95% of a walk.
+  const std::vector<geometry::Vec3f> sparse = wallScan(400, 1, 20.0, res),
+                                     dense = wallScan(400, 20, 20.0, res);
   for (const bool is_dense : {false, true}) {
     auto m = map::makeMap({"grid", res, {}});
     UpdateEngine engine;  // the default options
@@ -198,9 +198,9 @@ TEST(MethodChooser, TheDefaultRunsTheBaselineWhereSuperRaysCannotSaveAndMeasures
       ASSERT_TRUE(st);
       ++ran[st->method];
       consulted += st->chooser_consulted ? 1 : 0;
-      // 100 cells along x plus the L1 offsets across the wall (up to 30 cells each way in y and z).
-      EXPECT_GT(st->walk_cells_per_ray, 110.0);
-      EXPECT_LT(st->walk_cells_per_ray, 160.0);
+      // 200 cells along x plus the L1 offsets across the wall (up to 30 cells each way in y and z).
+      EXPECT_GT(st->walk_cells_per_ray, 210.0);
+      EXPECT_LT(st->walk_cells_per_ray, 270.0);
       EXPECT_EQ(st->end_cells, 400u);
       // The rule's input and its threshold.
       EXPECT_NEAR(st->super_ray_saving, st->walk_cells_per_ray * (is_dense ? 0.95 : 0.0), 1e-9);

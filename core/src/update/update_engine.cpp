@@ -184,15 +184,23 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   const auto ta = Clock::now();
   map::ScanEvidence& ev = evidence_;
   // Occupied endpoints (after the free pass, as in OctoMap; the semantics decide how they combine).
-  std::uint64_t end_cells = 0;  // distinct, for the default method's rule below
-#pragma omp parallel reduction(+ : end_cells)
+  // For the default method's rule below: distinct endpoint cells, and the walks of the endpoints whose cell
+  // another endpoint already had (what grouping rays by endpoint cell, as super rays do, could save).
+  std::uint64_t end_cells = 0, shared_walks = 0;
+#pragma omp parallel reduction(+ : end_cells, shared_walks)
   {
     map::EvidenceCursor cursor(ev);
     const std::vector<VoxelKey>& end_keys = end_keys_;
 #pragma omp for schedule(static) nowait
     for (std::size_t i = 0; i < end_keys.size(); ++i) {
       const VoxelKey& k = end_keys[i];
-      end_cells += (counting ? cursor.addHit(k, 1) : cursor.markHit(k)) ? 1 : 0;
+      if (counting ? cursor.addHit(k, 1) : cursor.markHit(k)) {
+        ++end_cells;
+      } else {
+        for (int a = 0; a < 3; ++a)
+          shared_walks +=
+              static_cast<std::uint64_t>(std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
+      }
     }
   }
   // Batch semantics: occupied wins, so a hit cell gets no free update this scan.
@@ -203,8 +211,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     const std::uint64_t walked = n - rejected;
     st.walk_cells_per_ray = walked ? static_cast<double>(walk_cells) / static_cast<double>(walked) : 0.0;
     const double ends_n = static_cast<double>(ends.size());
-    st.super_ray_saving =
-        ends.empty() ? 0.0 : st.walk_cells_per_ray * (1.0 - static_cast<double>(st.end_cells) / ends_n);
+    st.super_ray_saving = ends.empty() ? 0.0 : static_cast<double>(shared_walks) / ends_n;
     consult_chooser_ = st.super_ray_saving >= options_.chooser.min_saving_to_measure;
   }
   double counting_ms = 0.0;

@@ -24,13 +24,13 @@ namespace densemap::update {
 
 struct MethodChooserOptions {
   /// The chooser is consulted only for scans whose previous scan could let super rays save at least this
-  /// many walked cells per point (mean walk length x (1 - end cells / points)); other scans run the
-  /// baseline without tries. Measured here (docs/BENCHMARKS.md, issue 24): super rays took 1.31x the
-  /// baseline's time where they could save 15.6 cells per point (kitti00, 0.8 m), so building them costs
-  /// about 25 cells of walking per point; on kitti00, hilti2023, la3dm and the simulator at 0.1-0.8 m no
-  /// method was faster than the baseline in all repetitions of a run, and tries made the default slower.
-  /// 0: always consult.
-  double min_saving_to_measure = 30.0;
+  /// many walked cells per point (the walks of points whose endpoint cell another point already had, per
+  /// point: UpdateStats::super_ray_saving, an upper bound on what grouping can save); other scans run the
+  /// baseline without tries. Set from the data (docs/BENCHMARKS.md, issue 24): on kitti00, hilti2023,
+  /// la3dm and the simulator at 0.1-0.8 m this reached 65.5 (kitti00, 0.1 m), no method was faster than
+  /// the baseline in all repetitions of any run, and super rays took 1.47x the baseline's time there; the
+  /// threshold is twice that largest value. 0: always consult.
+  double min_saving_to_measure = 130.0;
   std::uint64_t probe_after = 20;  ///< scans before the super-ray methods are first tried (at the earliest)
   std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries, at least (doubles per loss)
   std::uint64_t max_interval = 640;   ///< the doubling stops here

@@ -63,7 +63,9 @@ struct UpdateStats {
   /// the sensor's cell to the endpoints' cells) and the distinct endpoint cells (rays with endpoints only).
   double walk_cells_per_ray = 0.0;
   std::uint64_t end_cells = 0;
-  /// Walked cells per point that super rays could save: walk_cells_per_ray x (1 - end_cells / endpoints).
+  /// Walked cells per endpoint that super rays could save: the walks of the endpoints whose cell another
+  /// endpoint of the scan already had, per endpoint (dense points are mostly near, with short walks, so
+  /// this is far below walk_cells_per_ray x (1 - end_cells / endpoints)).
   double super_ray_saving = 0.0;
   bool chooser_consulted = false;  ///< kFastest: this scan's method came from the chooser (else baseline)
   double prepare_ms = 0.0;         ///< validation, range cuts, bounding box (part of update_ms)
