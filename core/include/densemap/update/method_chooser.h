@@ -28,8 +28,8 @@ struct MethodChooserOptions {
   /// point: UpdateStats::super_ray_saving, an upper bound on what grouping can save); other scans run the
   /// baseline without tries. Set from the data (docs/BENCHMARKS.md, issue 24): on kitti00, hilti2023,
   /// la3dm and the simulator at 0.1-0.8 m this reached 65.5 (kitti00, 0.1 m), no method was faster than
-  /// the baseline in all repetitions of any run, and super rays took 1.47x the baseline's time there; the
-  /// threshold is twice that largest value. 0: always consult.
+  /// the baseline in all repetitions of any run, and super rays took 1.47x the baseline's time there
+  /// (2026-12-05's method table); the threshold is twice that largest value. 0: always consult.
   double min_saving_to_measure = 130.0;
   std::uint64_t probe_after = 20;  ///< scans before the super-ray methods are first tried (at the earliest)
   std::uint64_t probe_interval = 20;  ///< scans between a losing method's tries, at least (doubles per loss)
