@@ -22,10 +22,7 @@ def bench(exe,src,scans):
   p=subprocess.run(cmd,capture_output=True,text=True)
   if p.returncode!=0:
     sys.exit("fastest_ab: %s failed (exit %d); is the data in %s?\n%s"%(" ".join(cmd),p.returncode,DATA,p.stderr[-2000:]))
-  rows=list(map(json.loads,p.stdout.splitlines()))
-  if sys.argv[1]=="--verdict":
-    fixed_policies(rows)
-  return [d for d in rows if d["method"]=="fastest"]
+  return list(map(json.loads,p.stdout.splitlines()))
 FOUR=("baseline","superrays","culling","superrays+culling")
 fixed_slower={}  # method -> cells where always running it would be measurably slower than another
 def fixed_policies(rows):
@@ -41,7 +38,9 @@ def fixed_policies(rows):
 if sys.argv[1]=="--verdict":
   slower=paired=cells=0
   for name,src,scans in sources:
-    found={(d["backend"],d["resolution"]):d for d in bench(sys.argv[2],src,scans)}
+    rows=bench(sys.argv[2],src,scans)
+    fixed_policies(rows)
+    found={(d["backend"],d["resolution"]):d for d in rows if d["method"]=="fastest"}
     for be in ("grid","octree"):
       line=[]
       for r in (0.1,0.2,0.4,0.8):
@@ -63,7 +62,7 @@ for name,src,scans in sources:
   for run in range(runs):
     order=[("old",old),("new",new)] if run%2==0 else [("new",new),("old",old)]
     for which,exe in order:
-      for d in bench(exe,src,scans):
+      for d in (d for d in bench(exe,src,scans) if d["method"]=="fastest"):
         res.setdefault((name,d["backend"],d["resolution"],which),[]).append(d["time_vs_best_of_four"])
         res.setdefault((name,d["backend"],d["resolution"],which+"_chosen"),[]).append(d["chosen"][0])
   for be in ("grid","octree"):
