@@ -98,6 +98,15 @@ class BatchTreeUpdater {
     Entry* end;
   };
 
+  /// True when the entries (distinct keys, all inside the node at `depth`) cover every cell of that node
+  /// and carry the same counts, so every cell ends with the same value.
+  static bool updatesEveryCellAlike(const Entry* b, const Entry* e, unsigned depth) {
+    const auto cells = std::size_t{1} << (3 * (kTreeDepth - depth));
+    return static_cast<std::size_t>(e - b) == cells && std::all_of(b + 1, e, [&](const Entry& x) {
+             return x.n_free == b->n_free && x.n_hit == b->n_hit;
+           });
+  }
+
   /// `factory` creates and deletes nodes (and counts them); `top` records tasks at kSplitDepth and defers
   /// the upper nodes' prune-or-max to the end instead of doing it on the way up.
   void descend(octomap::OcTree& factory, octomap::OcTreeNode* node, bool just_created, unsigned depth,
@@ -111,6 +120,12 @@ class BatchTreeUpdater {
       const float v = node->getLogOdds();
       e = std::remove_if(b, e, [&](const Entry& x) { return isNoOpUpdate(true, v, x.n_free, x.n_hit, lo_); });
       if (e == b) return;
+      if (updatesEveryCellAlike(b, e, depth)) {
+        // OctoMap would expand this leaf, give every cell the same new value and prune the children back
+        // into it on the way up: the same leaf with that value, and no node allocated or freed.
+        node->setLogOdds(applyCellUpdate(v, b->n_free, b->n_hit, lo_));
+        return;
+      }
       factory.expandNode(node);
     }
     if (top && depth == kSplitDepth) {

@@ -1,7 +1,8 @@
 // An occupancy map backed by octomap::OcTree, so maps save as .bt/.ot and open in OctoMap's tools.
 // A scan's evidence is applied in one depth-first pass over its cells in Morton order, which yields the
 // same tree, node for node and bit for bit, as OctoMap's per-key updateNode calls (same early aborts,
-// expansions and pruning) while visiting every inner node only once.
+// expansions and pruning, except a pruned leaf whose every cell gets the same update: OctoMap expands it and
+// prunes it back, this pass only updates it) while visiting every inner node only once.
 #pragma once
 
 #include <memory>
