@@ -168,10 +168,10 @@ class ScanEvidence {
   void markFree(const VoxelKey& key);
   void markHit(const VoxelKey& key);
 
-  /// The block holding `key`, or null if nothing was recorded there (or it lies outside the box). Inline:
-  /// the ray walks call it whenever a ray enters a block, and an out-of-line call there makes the compiler
-  /// spill the walk's floating-point state on every step.
-  EvidenceBlock* findBlock(const VoxelKey& key) const {
+  /// The block holding `key`, or null if nothing was recorded there (or it lies outside the box). Forced
+  /// inline (GCC kept it out of line in the eight walk instantiations): the ray walks call it whenever a
+  /// ray enters a block, and a call there makes the compiler spill the walk's floating-point state.
+  [[gnu::always_inline]] EvidenceBlock* findBlock(const VoxelKey& key) const {
     const auto* s = slot(key);
     return s ? s->load(std::memory_order_acquire) : nullptr;
   }
@@ -221,7 +221,7 @@ class ScanEvidence {
   /// lane; the caller merges after the team has finished, before anything reads the free planes. Each lane
   /// costs a free plane per block (a sixth of a block), so their number is capped.
   static constexpr int kMaxFreeLanes = 16;
-  BitPlane& freeLane(int lane, const EvidenceBlock& b) {
+  [[gnu::always_inline]] BitPlane& freeLane(int lane, const EvidenceBlock& b) {
     auto& planes = chunk_ptrs_[b.id / kChunkBlocks]
                        .load(std::memory_order_relaxed)
                        ->lanes[static_cast<std::size_t>(lane)];
@@ -248,7 +248,7 @@ class ScanEvidence {
   };
   std::size_t capacity() const { return kChunkBlocks * kMaxChunks; }
   EvidenceBlock* allocate();
-  std::atomic<EvidenceBlock*>* slot(const VoxelKey& key) const {
+  [[gnu::always_inline]] std::atomic<EvidenceBlock*>* slot(const VoxelKey& key) const {
     const int bx = (key[0] >> kBlockShift) - lo_[0];
     const int by = (key[1] >> kBlockShift) - lo_[1];
     const int bz = (key[2] >> kBlockShift) - lo_[2];
