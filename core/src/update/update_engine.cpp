@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 
+#include <omp.h>
+
 #include "densemap/geometry/ray_traversal.h"
 #include "densemap/update/culling_region.h"
 #include "densemap/update/ray_tracer.h"
@@ -106,12 +108,35 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   ends.resize(n - rejected - cut);
   cut_ends.resize(cut);
   end_keys_.resize(ends.size());
-  for (std::size_t i = 0, e = 0, c = 0; i < n; ++i) {
-    if (kind_[i] == 1) {
-      end_keys_[e] = keys_[i];
-      ends[e++] = clipped_[i];
-    } else if (kind_[i] == 2) {
-      cut_ends[c++] = clipped_[i];
+  // Compacted in input order, in parallel: each of `parts` contiguous slices of the points is copied to
+  // where the slices before it end (serial, this copy was a quarter of the preparation's time).
+  const auto parts = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+  part_starts_.assign(2 * (parts + 1), 0);  // per slice: first endpoint, first cut end
+  auto slice = [&](std::size_t p) { return std::pair{n * p / parts, n * (p + 1) / parts}; };
+#pragma omp parallel for schedule(static)
+  for (std::size_t p = 0; p < parts; ++p) {
+    std::size_t e = 0, c = 0;
+    for (auto [i, end] = slice(p); i < end; ++i) {
+      e += kind_[i] == 1 ? 1 : 0;
+      c += kind_[i] == 2 ? 1 : 0;
+    }
+    part_starts_[2 * (p + 1)] = e;
+    part_starts_[2 * (p + 1) + 1] = c;
+  }
+  for (std::size_t p = 1; p <= parts; ++p) {
+    part_starts_[2 * p] += part_starts_[2 * (p - 1)];
+    part_starts_[2 * p + 1] += part_starts_[2 * (p - 1) + 1];
+  }
+#pragma omp parallel for schedule(static)
+  for (std::size_t p = 0; p < parts; ++p) {
+    std::size_t e = part_starts_[2 * p], c = part_starts_[2 * p + 1];
+    for (auto [i, end] = slice(p); i < end; ++i) {
+      if (kind_[i] == 1) {
+        end_keys_[e] = keys_[i];
+        ends[e++] = clipped_[i];
+      } else if (kind_[i] == 2) {
+        cut_ends[c++] = clipped_[i];
+      }
     }
   }
   // Rounding can let OctoMap's walk step one cell past the endpoint's box; pad it.
@@ -142,8 +167,9 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     for (const Vec3f& e : cut_ends) rays.push_back({e, 1});
   } else {
     rays.resize(ends.size() + cut_ends.size());
-    for (std::size_t i = 0; i < ends.size(); ++i) rays[i] = {ends[i], 1};
-    for (std::size_t i = 0; i < cut_ends.size(); ++i) rays[ends.size() + i] = {cut_ends[i], 1};
+    const std::size_t ne = ends.size();
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < rays.size(); ++i) rays[i] = {i < ne ? ends[i] : cut_ends[i - ne], 1};
   }
   st.rays = rays.size();
   if (use_culling) st.region_cells = CullingRegion::build(map, origin_key, evidence_).cells;

@@ -103,6 +103,7 @@ class UpdateEngine {
   SuperRayGenerator generator_;
   // Per-scan buffers kept between scans (large, so reallocating them would page-fault every scan).
   std::vector<geometry::Vec3f> ends_, cut_ends_, clipped_;
+  std::vector<std::size_t> part_starts_;  // parallel compaction: where each slice's copies begin
   std::vector<std::uint8_t> kind_;  // per point: 0 rejected, 1 ray with endpoint, 2 ray cut at max range
   std::vector<geometry::VoxelKey> keys_, end_keys_;  // per point / per endpoint: the endpoint's cell
   std::vector<geometry::VoxelKey> cell_keys_;        // count_cells: the cells with evidence
