@@ -37,7 +37,7 @@ class BatchMarkingWalk {
   /// geometry::walkForward marking every cell; returns the number of cells marked.
   template <int kSx, int kSy, int kSz>
   std::uint64_t forward(const geometry::RaySetup& r) {
-    if (sameCell(r.origin_key, r.end_key)) return 0;
+    if (r.origin_key == r.end_key) return 0;
     double tx = r.t_max0[0], ty = r.t_max0[1], tz = r.t_max0[2];
     const double dx = r.t_delta[0], dy = r.t_delta[1], dz = r.t_delta[2];
     int kx = r.origin_key[0], ky = r.origin_key[1], kz = r.origin_key[2];
@@ -97,7 +97,7 @@ class BatchMarkingWalk {
   /// itself.
   template <int kSx, int kSy, int kSz, StopAt kStop, class Fallback>
   std::uint64_t backward(const geometry::RaySetup& r, Fallback&& fallback) {
-    if (sameCell(r.origin_key, r.end_key)) return 0;
+    if (r.origin_key == r.end_key) return 0;
     const double tol = geometry::tieTolerance(r);
     constexpr double kNone = -std::numeric_limits<double>::infinity();
     geometry::BackwardStart bs;
@@ -199,10 +199,6 @@ class BatchMarkingWalk {
     } else {
       ev_.markFree(k);
     }
-  }
-  /// std::array's == on the keys is a call to memcmp, once per ray.
-  static bool sameCell(const geometry::VoxelKey& a, const geometry::VoxelKey& b) {
-    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
   }
   static geometry::VoxelKey key(int kx, int ky, int kz) {
     return geometry::VoxelKey{{static_cast<geometry::KeyCoord>(kx), static_cast<geometry::KeyCoord>(ky),

@@ -22,7 +22,10 @@ struct VoxelKey {
 
   constexpr KeyCoord operator[](int i) const { return k[static_cast<std::size_t>(i)]; }
   constexpr KeyCoord& operator[](int i) { return k[static_cast<std::size_t>(i)]; }
-  friend constexpr bool operator==(const VoxelKey&, const VoxelKey&) = default;
+  // By component: the defaulted == compiles to a call to memcmp, which the ray walks made once per ray.
+  friend constexpr bool operator==(const VoxelKey& a, const VoxelKey& b) {
+    return a.k[0] == b.k[0] && a.k[1] == b.k[1] && a.k[2] == b.k[2];
+  }
 
   /// 48-bit packed form, usable as a sort or hash key.
   constexpr std::uint64_t packed() const {
