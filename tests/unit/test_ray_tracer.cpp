@@ -1,8 +1,11 @@
 // traceRays under batch semantics uses walks specialised by step sign with an incrementally stepped
 // Morton index (batch_marking_walk.h). They must mark exactly the cells of OctoMap's computeRayKeys: in
 // every direction, across block boundaries, on exact ties (backward walks fall back to OctoMap's order),
-// outside the scan's evidence box (overflow cells), and stopping at the culling region.
+// outside the scan's evidence box (overflow cells), and stopping at the culling region. Neighbouring rays
+// of a ring are walked in pairs that share their steps while in the same cell: those must mark and count
+// exactly what walking them one by one does.
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <set>
 #include <vector>
@@ -138,6 +141,64 @@ TEST(TraceRays, ThreadTeamsMarkOctomapsCellsAndLeaveNothingForTheNextScan) {
         traceRays(grid, ev, o, first ? random : ties, opt);
         EXPECT_EQ(markedFree(ev), first ? expected_random : expected_ties)
             << team << " threads" << (backward ? " backward" : " forward") << " scan " << scan;
+      }
+    }
+  }
+  omp_set_num_threads(before);
+}
+
+/// A spinning sensor's rings: neighbouring rays 0.18 degrees apart (a ring's consecutive points, as
+/// KITTI stores them), which the forward batch walk takes in pairs. The ranges vary from ray to ray, so
+/// either of a pair ends first; some pairs end in the same cell, some rays end in the sensor's cell, and
+/// one ring is level (no z steps at all).
+std::vector<SuperRay> ringRays(const Vec3f& o) {
+  std::vector<SuperRay> rays;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> range(0.5f, 45.0f);
+  const double kDeg = 3.14159265358979323846 / 180.0;
+  for (double elevation : {-10.0, -2.0, 0.0, 3.0}) {
+    for (int i = 0; i < 2000; ++i) {
+      const double az = 0.18 * i * kDeg, el = elevation * kDeg;
+      float r = range(rng);
+      if (i % 7 == 1) r = std::sqrt((rays.back().end - o).squaredNorm());  // as far as its neighbour
+      if (i % 97 == 0) r = 0.01f;                                          // ends in the sensor's cell
+      const Vec3f dir(static_cast<float>(std::cos(el) * std::cos(az)),
+                      static_cast<float>(std::cos(el) * std::sin(az)), static_cast<float>(std::sin(el)));
+      rays.push_back({o + r * dir, 1});
+    }
+  }
+  return rays;
+}
+
+std::uint64_t octomapTraversals(const octomap::OcTree& tree, const Vec3f& o,
+                                const std::vector<SuperRay>& rays) {
+  std::uint64_t n = 0;
+  octomap::KeyRay ray;
+  for (const SuperRay& r : rays) {
+    if (tree.computeRayKeys(octomap::point3d(o.x(), o.y(), o.z()),
+                            octomap::point3d(r.end.x(), r.end.y(), r.end.z()), ray))
+      n += ray.size();
+  }
+  return n;
+}
+
+TEST(TraceRays, NeighbouringRaysWalkedInPairsMarkAndCountOctomapsCells) {
+  const int before = omp_get_max_threads();
+  for (double res : {0.1, 0.2, 0.4}) {
+    octomap::OcTree tree(res);
+    map::GridMap grid(res);
+    // Off the grid, and on grid planes (rounding ties between the axes).
+    for (const Vec3f& o : {Vec3f(0.37f, -1.21f, 1.73f), Vec3f(0.0f, 0.0f, 0.0f)}) {
+      const std::vector<SuperRay> rays = ringRays(o);
+      const std::set<std::uint64_t> expected = octomapCells(tree, o, rays);
+      const std::uint64_t expected_traversals = octomapTraversals(tree, o, rays);
+      for (int team : {1, 2}) {
+        omp_set_num_threads(team);
+        map::ScanEvidence ev;
+        resetAround(ev, grid.converter(), o, 1000);
+        const TraceCounters c = traceRays(grid, ev, o, rays, TraceOptions{});
+        EXPECT_EQ(markedFree(ev), expected) << "res " << res << " origin " << o.transpose() << ", " << team;
+        EXPECT_EQ(c.traversed, expected_traversals) << "res " << res << " origin " << o.transpose();
       }
     }
   }

@@ -61,49 +61,75 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     [[maybe_unused]] BatchMarkingWalk fast(
         ev, BatchMarkingWalk::laneFor(omp_get_thread_num(), omp_get_num_threads()));
     geometry::WalkStats ws;
-#pragma omp for schedule(dynamic, 256) nowait
-    for (std::size_t i = 0; i < rays.size(); ++i) {
-      if (subset != TraceOptions::Subset::kAll &&
-          (inSample(rays[i].end, every) != (subset == TraceOptions::Subset::kSample)))
-        continue;
-      const SuperRay& r = rays[i];
-      RaySetup setup;
-      if (!origin_ok || !geometry::setupRay(conv, origin, origin_key, r.end, setup)) continue;
-      auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
-      auto in_region = [&](const VoxelKey& k) {
-        if constexpr (!kRegion) return false;
-        return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
-                      : mark.cursor.template has<&map::EvidenceBlock::region>(k);
-      };
-      if constexpr (!kCounting && !kCountUnnecessary) {
-        // Batch semantics: the specialised walks (same cells, cheaper marking).
-        if constexpr (kBackward) {
-          auto fallback = [&](const VoxelKey& stop_key) {
-            geometry::walkForward(setup, stop_key, in_region, visit);
-            ++ws.fallbacks;
-          };
-          auto walk = [&]<StopAt kStop>() {
-            return withStepSigns(setup, [&]<int kSx, int kSy, int kSz>() {
-              return fast.template backward<kSx, kSy, kSz, kStop>(setup, fallback);
-            });
-          };
-          if constexpr (kRegion) {
-            mark.visits += closed ? walk.template operator()<StopAt::kClosed>()
-                                  : walk.template operator()<StopAt::kRegion>();
-          } else {
-            mark.visits += walk.template operator()<StopAt::kNothing>();
-          }
-        } else {
-          mark.visits += withStepSigns(setup, [&]<int kSx, int kSy, int kSz>() {
-            return fast.template forward<kSx, kSy, kSz>(setup);
+    // Batch semantics, forward, every ray: neighbouring rays (a ring's consecutive points) are walked in
+    // pairs, sharing the steps while they are in the same cell (BatchMarkingWalk::forwardPair).
+    constexpr bool kPairs = !kCounting && !kCountUnnecessary && !kBackward;
+    if (kPairs && subset == TraceOptions::Subset::kAll) {
+      const std::size_t n = rays.size();
+#pragma omp for schedule(dynamic, 128) nowait
+      for (std::size_t p = 0; p < (n + 1) / 2; ++p) {
+        if (!origin_ok) continue;
+        const std::size_t i = 2 * p;
+        RaySetup sa, sb;
+        const bool ok_a = geometry::setupRay(conv, origin, origin_key, rays[i].end, sa);
+        const bool ok_b = i + 1 < n && geometry::setupRay(conv, origin, origin_key, rays[i + 1].end, sb);
+        if (ok_a && ok_b && sa.step[0] == sb.step[0] && sa.step[1] == sb.step[1] &&
+            sa.step[2] == sb.step[2] && !(sa.end_key == origin_key) && !(sb.end_key == origin_key)) {
+          mark.visits += withStepSigns(sa, [&]<int kSx, int kSy, int kSz>() {
+            return fast.template forwardPair<kSx, kSy, kSz>(sa, sb);
           });
+          continue;
         }
-      } else if constexpr (kBackward) {
-        geometry::walkBackward(setup, in_region, visit, &ws);
-      } else {
-        geometry::walkForward(setup, visit);
+        for (const RaySetup* s : {ok_a ? &sa : nullptr, ok_b ? &sb : nullptr}) {
+          if (s == nullptr) continue;
+          mark.visits += withStepSigns(
+              *s, [&]<int kSx, int kSy, int kSz>() { return fast.template forward<kSx, kSy, kSz>(*s); });
+        }
       }
-    }
+    } else
+#pragma omp for schedule(dynamic, 256) nowait
+      for (std::size_t i = 0; i < rays.size(); ++i) {
+        if (subset != TraceOptions::Subset::kAll &&
+            (inSample(rays[i].end, every) != (subset == TraceOptions::Subset::kSample)))
+          continue;
+        const SuperRay& r = rays[i];
+        RaySetup setup;
+        if (!origin_ok || !geometry::setupRay(conv, origin, origin_key, r.end, setup)) continue;
+        auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
+        auto in_region = [&](const VoxelKey& k) {
+          if constexpr (!kRegion) return false;
+          return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
+                        : mark.cursor.template has<&map::EvidenceBlock::region>(k);
+        };
+        if constexpr (!kCounting && !kCountUnnecessary) {
+          // Batch semantics: the specialised walks (same cells, cheaper marking).
+          if constexpr (kBackward) {
+            auto fallback = [&](const VoxelKey& stop_key) {
+              geometry::walkForward(setup, stop_key, in_region, visit);
+              ++ws.fallbacks;
+            };
+            auto walk = [&]<StopAt kStop>() {
+              return withStepSigns(setup, [&]<int kSx, int kSy, int kSz>() {
+                return fast.template backward<kSx, kSy, kSz, kStop>(setup, fallback);
+              });
+            };
+            if constexpr (kRegion) {
+              mark.visits += closed ? walk.template operator()<StopAt::kClosed>()
+                                    : walk.template operator()<StopAt::kRegion>();
+            } else {
+              mark.visits += walk.template operator()<StopAt::kNothing>();
+            }
+          } else {
+            mark.visits += withStepSigns(setup, [&]<int kSx, int kSy, int kSz>() {
+              return fast.template forward<kSx, kSy, kSz>(setup);
+            });
+          }
+        } else if constexpr (kBackward) {
+          geometry::walkBackward(setup, in_region, visit, &ws);
+        } else {
+          geometry::walkForward(setup, visit);
+        }
+      }
     traversed += mark.visits;
     unnecessary += mark.useless;
     fallbacks += ws.fallbacks;
