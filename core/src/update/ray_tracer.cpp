@@ -55,6 +55,14 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
   std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
   VoxelKey origin_key;  // once per scan, not per ray
   const bool origin_ok = conv.toKey(origin, origin_key);
+  const std::size_t known_keys = o.end_keys != nullptr ? std::min(o.end_keys->size(), rays.size()) : 0;
+  auto setupAt = [&](std::size_t i, RaySetup& s) {
+    if (i < known_keys) {
+      geometry::setupRayWithKeys(conv, origin, origin_key, rays[i].end, (*o.end_keys)[i], s);
+      return true;
+    }
+    return geometry::setupRay(conv, origin, origin_key, rays[i].end, s);
+  };
 #pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
   {
     Marker<kCountUnnecessary, kCounting> mark(map, ev);
@@ -71,8 +79,8 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
         if (!origin_ok) continue;
         const std::size_t i = 2 * p;
         RaySetup sa, sb;
-        const bool ok_a = geometry::setupRay(conv, origin, origin_key, rays[i].end, sa);
-        const bool ok_b = i + 1 < n && geometry::setupRay(conv, origin, origin_key, rays[i + 1].end, sb);
+        const bool ok_a = setupAt(i, sa);
+        const bool ok_b = i + 1 < n && setupAt(i + 1, sb);
         if (ok_a && ok_b && sa.step[0] == sb.step[0] && sa.step[1] == sb.step[1] &&
             sa.step[2] == sb.step[2] && !(sa.end_key == origin_key) && !(sb.end_key == origin_key)) {
           mark.visits += withStepSigns(sa, [&]<int kSx, int kSy, int kSz>() {
@@ -94,7 +102,7 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
           continue;
         const SuperRay& r = rays[i];
         RaySetup setup;
-        if (!origin_ok || !geometry::setupRay(conv, origin, origin_key, r.end, setup)) continue;
+        if (!origin_ok || !setupAt(i, setup)) continue;
         auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
         auto in_region = [&](const VoxelKey& k) {
           if constexpr (!kRegion) return false;

@@ -182,6 +182,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   to.backward = use_culling;
   to.region = use_culling && st.region_cells > 0;
   to.count_unnecessary = options_.count_unnecessary;
+  if (!use_super) to.end_keys = &end_keys_;  // rays[i] is ends[i] for i < ends.size()
   TraceCounters tc;
   auto add = [&](const TraceCounters& c) {
     tc.traversed += c.traversed;

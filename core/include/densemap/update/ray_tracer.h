@@ -19,6 +19,9 @@ struct TraceOptions {
   enum class Subset { kAll, kSample, kRest } subset = Subset::kAll;
   std::size_t sample_every = 8;
   bool count_unnecessary = false;
+  /// conv.toKey(rays[i].end) for i < end_keys->size(), where the caller has them already (the engine's
+  /// preparation converts every endpoint): the walks then skip converting them again.
+  const std::vector<geometry::VoxelKey>* end_keys = nullptr;
 };
 
 struct TraceCounters {
