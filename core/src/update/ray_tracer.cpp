@@ -88,13 +88,14 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
           });
           continue;
         }
-        for (const RaySetup* s : {ok_a ? &sa : nullptr, ok_b ? &sb : nullptr}) {
-          if (s == nullptr) continue;
+        auto single = [&](const RaySetup& s) {
           mark.visits += withStepSigns(
-              *s, [&]<int kSx, int kSy, int kSz>() { return fast.template forward<kSx, kSy, kSz>(*s); });
-        }
+              s, [&]<int kSx, int kSy, int kSz>() { return fast.template forward<kSx, kSy, kSz>(s); });
+        };
+        if (ok_a) single(sa);
+        if (ok_b) single(sb);
       }
-    } else
+    } else {
 #pragma omp for schedule(dynamic, 256) nowait
       for (std::size_t i = 0; i < rays.size(); ++i) {
         if (subset != TraceOptions::Subset::kAll &&
@@ -138,6 +139,7 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
           geometry::walkForward(setup, visit);
         }
       }
+    }
     traversed += mark.visits;
     unnecessary += mark.useless;
     fallbacks += ws.fallbacks;
