@@ -212,6 +212,13 @@ class BatchMarkingWalk {
     if constexpr (kRank[kP] < kRank[kQ]) return tp <= tq;
     return tp < tq;
   }
+  /// go.template operator()<axis>() for the axis OctoMap's step chooses, as branches (speculation overlaps
+  /// consecutive steps; a select chain would serialise them).
+  template <class F>
+  [[gnu::always_inline]] static decltype(auto) onLeastAxis(const double* t, F& go) {
+    if (t[0] < t[1]) return t[0] < t[2] ? go.template operator()<0>() : go.template operator()<2>();
+    return t[1] < t[2] ? go.template operator()<1>() : go.template operator()<2>();
+  }
   template <int kAx>
   [[gnu::always_inline]] static bool chooses(const double* t) {
     constexpr int kO1 = (kAx + 1) % 3, kO2 = (kAx + 2) % 3;
@@ -237,13 +244,7 @@ class BatchMarkingWalk {
       s.t[kAx] += s.d[kAx];
       return true;
     };
-    bool more;
-    if (s.t[0] < s.t[1]) {
-      more = s.t[0] < s.t[2] ? go.template operator()<0>() : go.template operator()<2>();
-    } else {
-      more = s.t[1] < s.t[2] ? go.template operator()<1>() : go.template operator()<2>();
-    }
-    if (!more) return false;
+    if (!onLeastAxis(s.t, go)) return false;
     return !(--s.steps_to_end == 0 && s.k[0] == s.e[0] && s.k[1] == s.e[1] && s.k[2] == s.e[2]);
   }
 
@@ -270,10 +271,7 @@ class BatchMarkingWalk {
       const bool end_b = --b.steps_to_end == 0 && a.k[0] == b.e[0] && a.k[1] == b.e[1] && a.k[2] == b.e[2];
       return (end_a ? kEndA : 0) | (end_b ? kEndB : 0);
     };
-    if (a.t[0] < a.t[1]) {
-      return a.t[0] < a.t[2] ? go.template operator()<0>() : go.template operator()<2>();
-    }
-    return a.t[1] < a.t[2] ? go.template operator()<1>() : go.template operator()<2>();
+    return onLeastAxis(a.t, go);
   }
 
   // Bits of each axis in a block's Morton index (x in the lowest bit, see map::voxelIndexInBlock).
