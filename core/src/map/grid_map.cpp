@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <new>
 #include <stdexcept>
 #include <vector>
 
@@ -56,20 +57,41 @@ void applyEvidence(PaletteBlock& b, const ScanEvidence& evidence, const Evidence
 }  // namespace
 
 void GridMap::apply(const ScanEvidence& evidence) {
-  // Creating blocks touches the hash map, so it is serial; the per-voxel work is parallel.
+  // Looking blocks up and inserting them touches the hash map, so it is serial. Making the new ones (an
+  // allocation and a clear, with page faults while the map grows: most of the serial time) and the
+  // per-voxel work are parallel.
   std::vector<std::pair<const EvidenceBlock*, Block*>> work;
+  std::vector<std::pair<std::uint64_t, std::size_t>> fresh;  // a new block's id and its item of `work`
   work.reserve(evidence.blockCount());
   evidence.forEachBlock([&](const EvidenceBlock& eb) {
     if (!eb.hasEvidence()) return;  // e.g. a block holding only culling-region cells
     const std::uint64_t id = blockId(eb.base);
     auto it = blocks_.find(id);
     if (it == blocks_.end()) {
-      requireInMemory(id);
-      it = blocks_.emplace(id, newBlock()).first;
+      requireInMemory(id);  // before any change
+      fresh.emplace_back(id, work.size());
+      work.emplace_back(&eb, nullptr);
+      return;
     }
     it->second->last_scan = scans_ + 1;
     work.emplace_back(&eb, it->second.get());
   });
+  std::vector<std::unique_ptr<Block>> made(fresh.size());
+  bool out_of_memory = false;
+#pragma omp parallel for schedule(static) reduction(|| : out_of_memory)
+  for (std::size_t i = 0; i < made.size(); ++i) {
+    try {
+      made[i] = newBlock();
+    } catch (const std::bad_alloc&) {  // an exception must not leave the parallel region
+      out_of_memory = true;
+    }
+  }
+  if (out_of_memory) throw std::bad_alloc();
+  for (std::size_t i = 0; i < made.size(); ++i) {
+    made[i]->last_scan = scans_ + 1;
+    work[fresh[i].second].second = made[i].get();
+    blocks_.emplace(fresh[i].first, std::move(made[i]));
+  }
   ++scans_;
   const LogOdds& lo = log_odds_;
 #pragma omp parallel for schedule(static)

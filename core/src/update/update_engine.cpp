@@ -58,13 +58,24 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   VoxelKey origin_key;
   if (!origin.allFinite() || !conv.toKey(origin, origin_key)) return std::nullopt;
 
+  const bool fastest = options_.method == UpdateMethod::kFastest;
+  st.chooser_consulted = fastest && (consult_chooser_ || options_.chooser.min_saving_to_measure <= 0.0);
+  const UpdateMethod method =
+      !fastest ? options_.method : (st.chooser_consulted ? chooser_.next() : UpdateMethod::kBaseline);
+  st.method = method;
+  const bool use_super = method == UpdateMethod::kSuperRays || method == UpdateMethod::kSuperRaysCulling;
+  const bool use_culling =
+      method == UpdateMethod::kCullingRegion || method == UpdateMethod::kSuperRaysCulling;
+
   const auto t0 = Clock::now();
   // Ray ends after the range limit, and whether they mark an occupied endpoint. Points that are not finite
   // or whose end leaves the key range are dropped, as OctoMap drops them.
   std::vector<Vec3f>& ends = ends_;
   std::vector<Vec3f>& cut_ends = cut_ends_;  // rays cut at max range: free only
   const std::size_t n = points.size();
-  clipped_.resize(n);
+  // With unlimited range every ray ends at its point, so the points are read in place of a copy.
+  const bool unlimited = options_.max_range < 0.0;
+  if (!unlimited) clipped_.resize(n);
   kind_.resize(n);
   keys_.resize(n);
   std::uint64_t rejected = 0, cut = 0, walk_cells = 0;
@@ -93,7 +104,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
       walk_cells +=
           static_cast<std::uint64_t>(std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
     }
-    clipped_[i] = c.end;
+    if (!unlimited) clipped_[i] = c.end;
     keys_[i] = k;  // the endpoint's cell, marked occupied after the walks
     kind_[i] = c.hit ? 1 : 2;
     cut += c.hit ? 0 : 1;
@@ -104,10 +115,18 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     lo[a] = static_cast<geometry::KeyCoord>(blo[a]);
     hi[a] = static_cast<geometry::KeyCoord>(bhi[a]);
   }
-  // Sized up front and filled by index (push_back's capacity checks cost more than the copies here).
-  ends.resize(n - rejected - cut);
-  cut_ends.resize(cut);
-  end_keys_.resize(ends.size());
+  // Sized up front and filled by index (push_back's capacity checks cost more than the copies here). Super
+  // rays are made from the endpoints; the other methods walk the rays the compaction writes directly:
+  // endpoints first, in input order, then the cut ends.
+  const std::size_t ne = n - rejected - cut;
+  std::vector<SuperRay>& rays = rays_;
+  if (use_super) {
+    ends.resize(ne);
+    cut_ends.resize(cut);
+  } else {
+    rays.resize(ne + cut);
+  }
+  end_keys_.resize(ne);
   // Compacted in input order, in parallel: each of `parts` contiguous slices of the points is copied to
   // where the slices before it end (serial, this copy was a quarter of the preparation's time).
   const auto parts = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
@@ -130,12 +149,23 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
 #pragma omp parallel for schedule(static)
   for (std::size_t p = 0; p < parts; ++p) {
     std::size_t e = part_starts_[2 * p], c = part_starts_[2 * p + 1];
+    const std::vector<Vec3f>& at = unlimited ? points : clipped_;
     for (auto [i, end] = slice(p); i < end; ++i) {
       if (kind_[i] == 1) {
         end_keys_[e] = keys_[i];
-        ends[e++] = clipped_[i];
+        if (use_super) {
+          ends[e] = at[i];
+        } else {
+          rays[e] = {at[i], 1};
+        }
+        ++e;
       } else if (kind_[i] == 2) {
-        cut_ends[c++] = clipped_[i];
+        if (use_super) {
+          cut_ends[c] = at[i];
+        } else {
+          rays[ne + c] = {at[i], 1};
+        }
+        ++c;
       }
     }
   }
@@ -148,28 +178,14 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   st.prepare_ms = msSince(t0);
   const auto tg = Clock::now();
 
-  const bool fastest = options_.method == UpdateMethod::kFastest;
-  st.chooser_consulted = fastest && (consult_chooser_ || options_.chooser.min_saving_to_measure <= 0.0);
-  const UpdateMethod method =
-      !fastest ? options_.method : (st.chooser_consulted ? chooser_.next() : UpdateMethod::kBaseline);
-  st.method = method;
-  const bool use_super = method == UpdateMethod::kSuperRays || method == UpdateMethod::kSuperRaysCulling;
-  const bool use_culling =
-      method == UpdateMethod::kCullingRegion || method == UpdateMethod::kSuperRaysCulling;
-  std::vector<SuperRay>& rays = rays_;
-  rays.clear();
   if (use_super) {
+    rays.clear();
     SuperRayStats sst;
     generator_.setOptions(options_.super_rays);
     generator_.generate(conv, origin, ends, rays, &sst, nullptr, &end_keys_);
     st.super_rays = sst.super_rays;
     st.grouped_points = sst.grouped_points;
     for (const Vec3f& e : cut_ends) rays.push_back({e, 1});
-  } else {
-    rays.resize(ends.size() + cut_ends.size());
-    const std::size_t ne = ends.size();
-#pragma omp parallel for schedule(static)
-    for (std::size_t i = 0; i < rays.size(); ++i) rays[i] = {i < ne ? ends[i] : cut_ends[i - ne], 1};
   }
   st.rays = rays.size();
   if (use_culling) st.region_cells = CullingRegion::build(map, origin_key, evidence_).cells;
@@ -182,7 +198,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   to.backward = use_culling;
   to.region = use_culling && st.region_cells > 0;
   to.count_unnecessary = options_.count_unnecessary;
-  if (!use_super) to.end_keys = &end_keys_;  // rays[i] is ends[i] for i < ends.size()
+  if (!use_super) to.end_keys = &end_keys_;  // rays[i] is endpoint i for i < ne
   TraceCounters tc;
   auto add = [&](const TraceCounters& c) {
     tc.traversed += c.traversed;
@@ -237,8 +253,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     st.end_cells = end_cells + ev.overflowHitCells();
     const std::uint64_t walked = n - rejected;
     st.walk_cells_per_ray = walked ? static_cast<double>(walk_cells) / static_cast<double>(walked) : 0.0;
-    const double ends_n = static_cast<double>(ends.size());
-    st.super_ray_saving = ends.empty() ? 0.0 : static_cast<double>(shared_walks) / ends_n;
+    st.super_ray_saving = ne == 0 ? 0.0 : static_cast<double>(shared_walks) / static_cast<double>(ne);
     consult_chooser_ = st.super_ray_saving >= options_.chooser.min_saving_to_measure;
   }
   double counting_ms = 0.0;

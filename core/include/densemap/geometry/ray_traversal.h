@@ -18,11 +18,12 @@ struct ClippedRay {
 };
 
 inline ClippedRay clipRay(const Vec3f& origin, const Vec3f& point, double max_range) {
+  if (max_range < 0.0) return {point, true};  // unlimited: no norm needed
   // Same float/double mix as octomath::Vector3::norm(): float sum of squares, double sqrt.
   const float dx = point.x() - origin.x(), dy = point.y() - origin.y(), dz = point.z() - origin.z();
   const float sq = dx * dx + dy * dy + dz * dz;
   const double norm = std::sqrt(static_cast<double>(sq));
-  if (max_range < 0.0 || norm <= max_range) return {point, true};
+  if (norm <= max_range) return {point, true};
   const float len = static_cast<float>(norm);
   const float r = static_cast<float>(max_range);
   const Vec3f dir(dx / len, dy / len, dz / len);
