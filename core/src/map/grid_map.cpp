@@ -73,7 +73,6 @@ void GridMap::apply(const ScanEvidence& evidence) {
       work.emplace_back(&eb, nullptr);
       return;
     }
-    it->second->last_scan = scans_ + 1;
     work.emplace_back(&eb, it->second.get());
   });
   std::vector<std::unique_ptr<Block>> made(fresh.size());
@@ -88,11 +87,11 @@ void GridMap::apply(const ScanEvidence& evidence) {
   }
   if (out_of_memory) throw std::bad_alloc();
   for (std::size_t i = 0; i < made.size(); ++i) {
-    made[i]->last_scan = scans_ + 1;
     work[fresh[i].second].second = made[i].get();
     blocks_.emplace(fresh[i].first, std::move(made[i]));
   }
   ++scans_;
+  for (auto& w : work) w.second->last_scan = scans_;  // after every check that can throw
   const LogOdds& lo = log_odds_;
 #pragma omp parallel for schedule(static)
   for (std::size_t w = 0; w < work.size(); ++w) {
