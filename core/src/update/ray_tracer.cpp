@@ -45,9 +45,24 @@ inline bool inSample(const Vec3f& end, std::size_t every) {
   return (h >> 29) % every == 0;
 }
 
-template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion>
+/// The rays to walk: super rays (end and weight), or the endpoints of a scan, each a ray of weight 1 (the
+/// preparation's output when it rejected and cut nothing, walked without copying it into super rays).
+struct SuperRayList {
+  const std::vector<SuperRay>& rays;
+  std::size_t size() const { return rays.size(); }
+  const Vec3f& end(std::size_t i) const { return rays[i].end; }
+  std::uint32_t weight(std::size_t i) const { return rays[i].weight; }
+};
+struct EndpointList {
+  const std::vector<Vec3f>& ends;
+  std::size_t size() const { return ends.size(); }
+  const Vec3f& end(std::size_t i) const { return ends[i]; }
+  std::uint32_t weight(std::size_t) const { return 1; }
+};
+
+template <bool kCountUnnecessary, bool kCounting, bool kBackward, bool kRegion, class Rays>
 TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
-                        const std::vector<SuperRay>& rays, const TraceOptions& o) {
+                        const Rays& rays, const TraceOptions& o) {
   const bool closed = o.stop_at_closed;
   const std::size_t every = std::max<std::size_t>(o.sample_every, 1);
   const auto subset = o.subset;
@@ -58,10 +73,10 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
   const std::size_t known_keys = o.end_keys != nullptr ? std::min(o.end_keys->size(), rays.size()) : 0;
   auto setupAt = [&](std::size_t i, RaySetup& s) {
     if (i < known_keys) {
-      geometry::setupRayWithKeys(conv, origin, origin_key, rays[i].end, (*o.end_keys)[i], s);
+      geometry::setupRayWithKeys(conv, origin, origin_key, rays.end(i), (*o.end_keys)[i], s);
       return true;
     }
-    return geometry::setupRay(conv, origin, origin_key, rays[i].end, s);
+    return geometry::setupRay(conv, origin, origin_key, rays.end(i), s);
   };
 #pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
   {
@@ -99,12 +114,12 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
 #pragma omp for schedule(dynamic, 256) nowait
       for (std::size_t i = 0; i < rays.size(); ++i) {
         if (subset != TraceOptions::Subset::kAll &&
-            (inSample(rays[i].end, every) != (subset == TraceOptions::Subset::kSample)))
+            (inSample(rays.end(i), every) != (subset == TraceOptions::Subset::kSample)))
           continue;
-        const SuperRay& r = rays[i];
+        const std::uint32_t weight = rays.weight(i);
         RaySetup setup;
         if (!origin_ok || !setupAt(i, setup)) continue;
-        auto visit = [&](const VoxelKey& k) { mark(k, r.weight); };
+        auto visit = [&](const VoxelKey& k) { mark(k, weight); };
         auto in_region = [&](const VoxelKey& k) {
           if constexpr (!kRegion) return false;
           return closed ? mark.cursor.template has<&map::EvidenceBlock::closed>(k)
@@ -148,24 +163,35 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
   return {traversed, fallbacks, unnecessary};
 }
 
-template <bool kCountUnnecessary, bool kCounting>
+template <bool kCountUnnecessary, bool kCounting, class Rays>
 TraceCounters dispatch(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
-                       const std::vector<SuperRay>& rays, const TraceOptions& o) {
+                       const Rays& rays, const TraceOptions& o) {
   if (!o.backward) return traceEach<kCountUnnecessary, kCounting, false, false>(map, ev, origin, rays, o);
   return o.region ? traceEach<kCountUnnecessary, kCounting, true, true>(map, ev, origin, rays, o)
                   : traceEach<kCountUnnecessary, kCounting, true, false>(map, ev, origin, rays, o);
 }
 
-}  // namespace
-
-TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
-                        const std::vector<SuperRay>& rays, const TraceOptions& o) {
+template <class Rays>
+TraceCounters traceAny(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                       const Rays& rays, const TraceOptions& o) {
   if (o.count_unnecessary) {
     return o.counting ? dispatch<true, true>(map, ev, origin, rays, o)
                       : dispatch<true, false>(map, ev, origin, rays, o);
   }
   return o.counting ? dispatch<false, true>(map, ev, origin, rays, o)
                     : dispatch<false, false>(map, ev, origin, rays, o);
+}
+
+}  // namespace
+
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                        const std::vector<SuperRay>& rays, const TraceOptions& o) {
+  return traceAny(map, ev, origin, SuperRayList{rays}, o);
+}
+
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& ev, const Vec3f& origin,
+                        const std::vector<Vec3f>& ends, const TraceOptions& o) {
+  return traceAny(map, ev, origin, EndpointList{ends}, o);
 }
 
 }  // namespace densemap::update

@@ -120,52 +120,60 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   // endpoints first, in input order, then the cut ends.
   const std::size_t ne = n - rejected - cut;
   std::vector<SuperRay>& rays = rays_;
-  if (use_super) {
+  const std::vector<Vec3f>& at = unlimited ? points : clipped_;
+  // Nothing rejected or cut (the common case): every point is a ray of weight 1 ending at it, with its
+  // key in keys_, so the methods without super rays walk `at` and keys_ in place, with no compaction.
+  const bool in_place = !use_super && rejected == 0 && cut == 0;
+  const std::vector<VoxelKey>& end_keys = in_place ? keys_ : end_keys_;
+  if (in_place) {
+    rays.clear();
+  } else if (use_super) {
     ends.resize(ne);
     cut_ends.resize(cut);
   } else {
     rays.resize(ne + cut);
   }
-  end_keys_.resize(ne);
-  // Compacted in input order, in parallel: each of `parts` contiguous slices of the points is copied to
-  // where the slices before it end (serial, this copy was a quarter of the preparation's time).
-  const auto parts = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
-  part_starts_.assign(2 * (parts + 1), 0);  // per slice: first endpoint, first cut end
-  auto slice = [&](std::size_t p) { return std::pair{n * p / parts, n * (p + 1) / parts}; };
+  if (!in_place) {
+    end_keys_.resize(ne);
+    // Compacted in input order, in parallel: each of `parts` contiguous slices of the points is copied to
+    // where the slices before it end (serial, this copy was a quarter of the preparation's time).
+    const auto parts = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+    part_starts_.assign(2 * (parts + 1), 0);  // per slice: first endpoint, first cut end
+    auto slice = [&](std::size_t p) { return std::pair{n * p / parts, n * (p + 1) / parts}; };
 #pragma omp parallel for schedule(static)
-  for (std::size_t p = 0; p < parts; ++p) {
-    std::size_t e = 0, c = 0;
-    for (auto [i, end] = slice(p); i < end; ++i) {
-      e += kind_[i] == 1 ? 1 : 0;
-      c += kind_[i] == 2 ? 1 : 0;
+    for (std::size_t p = 0; p < parts; ++p) {
+      std::size_t e = 0, c = 0;
+      for (auto [i, end] = slice(p); i < end; ++i) {
+        e += kind_[i] == 1 ? 1 : 0;
+        c += kind_[i] == 2 ? 1 : 0;
+      }
+      part_starts_[2 * (p + 1)] = e;
+      part_starts_[2 * (p + 1) + 1] = c;
     }
-    part_starts_[2 * (p + 1)] = e;
-    part_starts_[2 * (p + 1) + 1] = c;
-  }
-  for (std::size_t p = 1; p <= parts; ++p) {
-    part_starts_[2 * p] += part_starts_[2 * (p - 1)];
-    part_starts_[2 * p + 1] += part_starts_[2 * (p - 1) + 1];
-  }
+    for (std::size_t p = 1; p <= parts; ++p) {
+      part_starts_[2 * p] += part_starts_[2 * (p - 1)];
+      part_starts_[2 * p + 1] += part_starts_[2 * (p - 1) + 1];
+    }
 #pragma omp parallel for schedule(static)
-  for (std::size_t p = 0; p < parts; ++p) {
-    std::size_t e = part_starts_[2 * p], c = part_starts_[2 * p + 1];
-    const std::vector<Vec3f>& at = unlimited ? points : clipped_;
-    for (auto [i, end] = slice(p); i < end; ++i) {
-      if (kind_[i] == 1) {
-        end_keys_[e] = keys_[i];
-        if (use_super) {
-          ends[e] = at[i];
-        } else {
-          rays[e] = {at[i], 1};
+    for (std::size_t p = 0; p < parts; ++p) {
+      std::size_t e = part_starts_[2 * p], c = part_starts_[2 * p + 1];
+      for (auto [i, end] = slice(p); i < end; ++i) {
+        if (kind_[i] == 1) {
+          end_keys_[e] = keys_[i];
+          if (use_super) {
+            ends[e] = at[i];
+          } else {
+            rays[e] = {at[i], 1};
+          }
+          ++e;
+        } else if (kind_[i] == 2) {
+          if (use_super) {
+            cut_ends[c] = at[i];
+          } else {
+            rays[ne + c] = {at[i], 1};
+          }
+          ++c;
         }
-        ++e;
-      } else if (kind_[i] == 2) {
-        if (use_super) {
-          cut_ends[c] = at[i];
-        } else {
-          rays[ne + c] = {at[i], 1};
-        }
-        ++c;
       }
     }
   }
@@ -187,7 +195,7 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     st.grouped_points = sst.grouped_points;
     for (const Vec3f& e : cut_ends) rays.push_back({e, 1});
   }
-  st.rays = rays.size();
+  st.rays = in_place ? n : rays.size();
   if (use_culling) st.region_cells = CullingRegion::build(map, origin_key, evidence_).cells;
   st.generation_ms = msSince(tg);
 
@@ -198,19 +206,22 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   to.backward = use_culling;
   to.region = use_culling && st.region_cells > 0;
   to.count_unnecessary = options_.count_unnecessary;
-  if (!use_super) to.end_keys = &end_keys_;  // rays[i] is endpoint i for i < ne
+  if (!use_super) to.end_keys = &end_keys;  // ray i is endpoint i for i < ne
   TraceCounters tc;
   auto add = [&](const TraceCounters& c) {
     tc.traversed += c.traversed;
     tc.fallbacks += c.fallbacks;
     tc.unnecessary += c.unnecessary;
   };
-  if (use_culling && !counting && options_.in_scan_closure && rays.size() > 64) {
+  auto trace = [&](const TraceOptions& o) {
+    add(in_place ? traceRays(map, evidence_, origin, at, o) : traceRays(map, evidence_, origin, rays, o));
+  };
+  if (use_culling && !counting && options_.in_scan_closure && st.rays > 64) {
     // Batch semantics: walk a sparse sample first, close the region over what it marked, then let the other
     // rays stop on entering that closed region (marking a cell twice changes nothing).
     to.subset = TraceOptions::Subset::kSample;
     to.sample_every = options_.closure_sample_every;
-    add(traceRays(map, evidence_, origin, rays, to));
+    trace(to);
     const auto tcl = Clock::now();
     st.closed_cells = CullingRegion::buildClosed(origin_key, evidence_).cells;
     const double closure_ms = msSince(tcl);
@@ -218,10 +229,10 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     to.subset = TraceOptions::Subset::kRest;
     to.region = st.closed_cells > 0;
     to.stop_at_closed = true;
-    add(traceRays(map, evidence_, origin, rays, to));
+    trace(to);
     st.trace_ms -= closure_ms;  // reported under generation
   } else {
-    add(traceRays(map, evidence_, origin, rays, to));
+    trace(to);
   }
   st.trace_ms += msSince(t1);
   const auto ta = Clock::now();
@@ -233,7 +244,6 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
 #pragma omp parallel reduction(+ : end_cells, shared_walks)
   {
     map::EvidenceCursor cursor(ev);
-    const std::vector<VoxelKey>& end_keys = end_keys_;
 #pragma omp for schedule(static) nowait
     for (std::size_t i = 0; i < end_keys.size(); ++i) {
       const VoxelKey& k = end_keys[i];

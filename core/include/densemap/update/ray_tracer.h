@@ -36,5 +36,9 @@ struct TraceCounters {
 TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& evidence,
                         const geometry::Vec3f& origin, const std::vector<SuperRay>& rays,
                         const TraceOptions& options);
+/// The same for rays of weight 1 ending at `ends`.
+TraceCounters traceRays(const map::OccupancyMap& map, map::ScanEvidence& evidence,
+                        const geometry::Vec3f& origin, const std::vector<geometry::Vec3f>& ends,
+                        const TraceOptions& options);
 
 }  // namespace densemap::update
