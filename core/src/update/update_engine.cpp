@@ -79,37 +79,49 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   kind_.resize(n);
   keys_.resize(n);
   std::uint64_t rejected = 0, cut = 0, walk_cells = 0;
-  int blo[3] = {origin_key[0], origin_key[1], origin_key[2]}, bhi[3] = {blo[0], blo[1], blo[2]};
+  int lo_x = origin_key[0], lo_y = origin_key[1], lo_z = origin_key[2];
+  int hi_x = lo_x, hi_y = lo_y, hi_z = lo_z;
+  // Locals, not members: the stores to kind_ (bytes, which may alias anything) would otherwise make the
+  // compiler reload every member and vector pointer after each point.
+  const Vec3f* pts = points.data();
+  std::uint8_t* kind = kind_.data();
+  VoxelKey* keys = keys_.data();
+  Vec3f* clipped = unlimited ? nullptr : clipped_.data();
+  const double max_range = options_.max_range;
+  const int ox = origin_key[0], oy = origin_key[1], oz = origin_key[2];
   // Range cut, key range check and bounding box, in parallel; then compacted in input order.
-#pragma omp parallel for schedule(static) reduction(+ : rejected, cut, walk_cells) reduction(min : blo[:3]) \
-    reduction(max : bhi[:3])
+#pragma omp parallel for schedule(static) reduction(+ : rejected, cut, walk_cells) \
+    reduction(min : lo_x, lo_y, lo_z) reduction(max : hi_x, hi_y, hi_z)
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3f& p = points[i];
+    const Vec3f& p = pts[i];
     VoxelKey k;
     if (!p.allFinite()) {
       ++rejected;
-      kind_[i] = 0;
+      kind[i] = 0;
       continue;
     }
-    const geometry::ClippedRay c = geometry::clipRay(origin, p, options_.max_range);
+    const geometry::ClippedRay c = geometry::clipRay(origin, p, max_range);
     if (!conv.toKey(c.end, k)) {
       ++rejected;
-      kind_[i] = 0;
+      kind[i] = 0;
       continue;
     }
-    for (int a = 0; a < 3; ++a) {
-      blo[a] = std::min<int>(blo[a], k[a]);
-      bhi[a] = std::max<int>(bhi[a], k[a]);
-      // A forward walk takes exactly this many steps (geometry/ray_traversal.h).
-      walk_cells +=
-          static_cast<std::uint64_t>(std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
-    }
-    if (!unlimited) clipped_[i] = c.end;
-    keys_[i] = k;  // the endpoint's cell, marked occupied after the walks
-    kind_[i] = c.hit ? 1 : 2;
+    const int kx = k[0], ky = k[1], kz = k[2];
+    lo_x = std::min(lo_x, kx);
+    lo_y = std::min(lo_y, ky);
+    lo_z = std::min(lo_z, kz);
+    hi_x = std::max(hi_x, kx);
+    hi_y = std::max(hi_y, ky);
+    hi_z = std::max(hi_z, kz);
+    // A forward walk takes exactly this many steps (geometry/ray_traversal.h).
+    walk_cells += static_cast<std::uint64_t>(std::abs(kx - ox) + std::abs(ky - oy) + std::abs(kz - oz));
+    if (clipped != nullptr) clipped[i] = c.end;
+    keys[i] = k;  // the endpoint's cell, marked occupied after the walks
+    kind[i] = c.hit ? 1 : 2;
     cut += c.hit ? 0 : 1;
   }
   st.rejected = rejected;
+  const int blo[3] = {lo_x, lo_y, lo_z}, bhi[3] = {hi_x, hi_y, hi_z};
   VoxelKey lo, hi;
   for (int a = 0; a < 3; ++a) {
     lo[a] = static_cast<geometry::KeyCoord>(blo[a]);
