@@ -205,6 +205,43 @@ TEST(TraceRays, NeighbouringRaysWalkedInPairsMarkAndCountOctomapsCells) {
   omp_set_num_threads(before);
 }
 
+// The overload the engine uses when it walks a scan's points in place (nothing rejected or cut): the same
+// cells and visits as the super-ray list of weight 1, with the endpoints' keys passed in or not, forward
+// (in pairs) and backward.
+TEST(TraceRays, PointsWalkedInPlaceMarkOctomapsCells) {
+  for (double res : {0.2, 0.4}) {
+    octomap::OcTree tree(res);
+    map::GridMap grid(res);
+    Vec3f o;
+    // Random rays (few cells shared, so a wrong ray shows), then a ring's neighbours (walked in pairs).
+    std::vector<SuperRay> rays = testRays(res, o, false);
+    for (const SuperRay& r : ringRays(o)) rays.push_back(r);
+    std::vector<Vec3f> ends;
+    std::vector<geometry::VoxelKey> keys;
+    for (const SuperRay& r : rays) {
+      ASSERT_EQ(r.weight, 1u);
+      ends.push_back(r.end);
+      geometry::VoxelKey k;
+      ASSERT_TRUE(grid.converter().toKey(r.end, k));
+      keys.push_back(k);
+    }
+    const std::set<std::uint64_t> expected = octomapCells(tree, o, rays);
+    const std::uint64_t expected_traversals = octomapTraversals(tree, o, rays);
+    for (bool backward : {false, true})
+      for (bool with_keys : {false, true}) {
+        TraceOptions opt;
+        opt.backward = backward;
+        if (with_keys) opt.end_keys = &keys;
+        map::ScanEvidence ev;
+        resetAround(ev, grid.converter(), o, 1000);
+        const TraceCounters c = traceRays(grid, ev, o, ends, opt);
+        EXPECT_EQ(markedFree(ev), expected)
+            << "res " << res << " backward " << backward << " keys " << with_keys;
+        EXPECT_EQ(c.traversed, expected_traversals) << "res " << res << " backward " << backward;
+      }
+  }
+}
+
 TEST(TraceRays, BackwardBatchWalksStopOnEnteringTheRegion) {
   const double res = 0.2;
   octomap::OcTree tree(res);
