@@ -13,9 +13,7 @@ the second has no such bias (eval/paired_timing.h)."""
 import json,subprocess,sys,statistics as S
 if len(sys.argv) < 3 or sys.argv[1] in ("-h", "--help"):
   print(__doc__); sys.exit(0 if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help") else 2)
-import os
-DATA=os.path.join(os.path.dirname(os.path.abspath(__file__)),"..","..","shared","data")
-sources=[("kitti00",DATA+"/kitti00","0:9"),("hilti2023",DATA+"/hilti2023","0:29"),("sim60","sim:scans=60",""),("la3dm",DATA+"/la3dm/sim_structured","")]
+from bench_sources import DATA, SOURCES as sources
 def bench(exe,src,scans):
   cmd=[exe,"--no-octomap","--no-unnecessary","--json","--resolution","0.1,0.2,0.4,0.8","--method","all","--repeat","5","--source",src]
   if scans: cmd+=["--scans",scans]

@@ -6,14 +6,12 @@ sim:scans=60 and la3dm sim_structured (from ../shared/data) and prints per sourc
 the fastest concrete method, the baseline's ms per scan, each other method's time as a ratio to the
 baseline's (medians over the repeats), and the scans' shape: points per super ray, cells walked per ray
 (the baseline's), points per scan. Raw rows: /tmp/method_table.json."""
-import json, os, subprocess, sys
+import json, subprocess, sys
 if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
   print(__doc__); sys.exit(0 if len(sys.argv) > 1 else 2)
 exe = sys.argv[1]
 repeat = sys.argv[2] if len(sys.argv) > 2 else "3"
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
-sources = [("kitti00", DATA + "/kitti00", "0:9"), ("hilti2023", DATA + "/hilti2023", "0:29"),
-           ("sim60", "sim:scans=60", ""), ("la3dm", DATA + "/la3dm/sim_structured", "")]
+from bench_sources import DATA, SOURCES as sources
 out = []
 print("source    backend res best               | base ms  culling superrays sr+culling fastest | pts/super ray cells/ray pts/scan")
 for name, src, scans in sources:
