@@ -26,6 +26,7 @@
 #include "densemap/client/ros2_player.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/client/scan_resender.h"
+#include "densemap/client/server_join.h"
 #include "densemap/densify/range_image.h"
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/ros2/bag_reader.h"
@@ -113,6 +114,13 @@ int main(int argc, char** argv) {
   app.add_option("--wait", wait_s,
                  "seconds to wait for the server (start) and for its acknowledgements (end)")
       ->capture_default_str();
+  double rejoin_s = 20.0;
+  app.add_option("--rejoin-after", rejoin_s,
+                 "secure mode: a robot participant the server has not matched within this many seconds is "
+                 "replaced by a new one, until --wait runs out (Fast DDS 2.9's secure discovery now and then "
+                 "never matches one participant; a new one authenticates afresh); 0: never")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
@@ -238,43 +246,60 @@ int main(int argc, char** argv) {
     // From here to matched (and to the server's first statistics seen): the time a new robot needs to join,
     // authentication and the permissions handshake included in secure mode.
     const auto joined_from = std::chrono::steady_clock::now();
-    msg::DdsNode node(dds);
-    // A robot identity's permissions name its scan topics: NAME and NAME-<k> (tools/make-security.sh).
-    if (node.secure() && prefix_option->count() == 0) prefix = node.identity().name;
-    // Before the publisher: its acknowledgement observer uses both until the publisher is gone.
+    // Made again, with a new participant, when a secure join stalls (see --rejoin-after): the publisher,
+    // its observer and the ids go with the node.
+    std::optional<msg::DdsNode> node;
     std::set<std::string> ids;
-    for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
     // Only with robots: a query client's identity may not publish scans (secure mode refuses the writer).
     std::optional<client::ScanPublisher> publisher;
-    if (robots > 0) {
+    const auto join = [&] {
+      publisher.reset();
+      node.reset();
+      node.emplace(dds);
+      // A robot identity's permissions name its scan topics: NAME and NAME-<k> (tools/make-security.sh).
+      if (node->secure() && prefix_option->count() == 0) prefix = node->identity().name;
+      ids.clear();
+      for (int k = 0; k < robots; ++k) ids.insert(prefix + "-" + std::to_string(first_robot + k));
+      if (robots == 0) return;
       try {
-        publisher.emplace(node, std::vector<std::string>(ids.begin(), ids.end()));
+        publisher.emplace(*node, std::vector<std::string>(ids.begin(), ids.end()));
       } catch (const msg::DdsError& e) {
-        if (!node.secure()) throw;
+        if (!node->secure()) throw;
         throw std::runtime_error(fmt::format(
             "{}. In secure mode identity '{}' publishes scans only as robot ids '{}' and '{}-<k>': leave out "
             "--robot-prefix (it defaults to the identity's name), or use a robot identity",
-            e.what(), node.identity().name, node.identity().name, node.identity().name));
+            e.what(), node->identity().name, node->identity().name, node->identity().name));
       }
-    }
-    if (publisher && scan_log.enabled()) {
-      // Acknowledgements come on this process's robots' own topics; the check keeps the log to them anyway.
-      publisher->setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
-        if (!ids.count(a.robot_id())) return;
-        scan_log.write({{"event", "ack"},
-                        {"robot", a.robot_id()},
-                        {"seq", a.seq()},
-                        {"outcome", client::toString(a.outcome())},
-                        {"durable", a.durable()},
-                        {"publish_ns", a.publish_ns()},
-                        {"done_ns", a.done_ns()}});
-      });
-    }
+      if (scan_log.enabled()) {
+        // Acknowledgements come on this process's robots' own topics; the check keeps the log to them anyway.
+        publisher->setAckObserver([&scan_log, &ids](const msg::ScanAck& a) {
+          if (!ids.count(a.robot_id())) return;
+          scan_log.write({{"event", "ack"},
+                          {"robot", a.robot_id()},
+                          {"seq", a.seq()},
+                          {"outcome", client::toString(a.outcome())},
+                          {"durable", a.durable()},
+                          {"publish_ns", a.publish_ns()},
+                          {"done_ns", a.done_ns()}});
+        });
+      }
+    };
+    join();
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
-    if (publisher && !publisher->waitForServer(wait)) {
-      throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
-                               std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
-                               " s; start it first or check --domain");
+    int rejoins = 0;
+    if (publisher) {
+      // Secure joins only: a plain participant has no handshake to stall.
+      const auto attempt = node->secure() && rejoin_s > 0
+                               ? std::chrono::milliseconds(static_cast<long>(rejoin_s * 1000))
+                               : wait;
+      const auto joined =
+          client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, join, wait, attempt);
+      rejoins = joined.rejoins;
+      if (!joined.joined) {
+        throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
+                                 std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
+                                 " s; start it first or check --domain (" + joined.state + ")");
+      }
     }
     const auto since_join = [&joined_from](std::chrono::steady_clock::time_point t) {
       return std::chrono::duration<double, std::milli>(t - joined_from).count();
@@ -304,11 +329,11 @@ int main(int argc, char** argv) {
     std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
     for (int c = 0; c < query_clients; ++c) {
       query_clients_v.push_back(std::make_unique<client::QueryClient>(
-          node, client::clientIdOf(node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c),
-                                   "q" + std::to_string(c))));
+          *node, client::clientIdOf(*node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c),
+                                    "q" + std::to_string(c))));
       if (!query_clients_v.back()->waitForServer(wait)) {
         throw std::runtime_error("no densemap-server answers queries on DDS domain " +
-                                 std::to_string(dds.domain) + " within " + std::to_string(wait_s) +
+                                 std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
                                  " s; start it first or check --domain (secure: an identity whose role may "
                                  "query, e.g. client-1)");
       }
@@ -487,7 +512,8 @@ int main(int argc, char** argv) {
                         {"publish_seconds", publish_s},
                         {"total_seconds", total_s},
                         {"server_statistics", stats.has_value()},
-                        {"secure", node.secure()},
+                        {"secure", node->secure()},
+                        {"rejoins", rejoins},
                         {"matched_ms", matched_ms},
                         {"server_ready_ms", server_ready_ms}};
     if (stats) {

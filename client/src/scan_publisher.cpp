@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include <fmt/format.h>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
@@ -181,6 +182,28 @@ bool ScanPublisher::waitForServer(std::chrono::milliseconds timeout) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;
+}
+
+std::string ScanPublisher::joinState() {
+  std::string out;
+  {
+    std::lock_guard lock(robots_mutex_);
+    for (auto& [id, r] : robots_) {
+      eprosima::fastdds::dds::PublicationMatchedStatus pub;
+      eprosima::fastdds::dds::SubscriptionMatchedStatus sub;
+      r->writer->get_publication_matched_status(pub);
+      r->ack_reader->get_subscription_matched_status(sub);
+      out += fmt::format("{}{}: scans read by {} server reader(s), acknowledgements from {} server writer(s)",
+                         out.empty() ? "" : "; ", id, pub.current_count, sub.current_count);
+    }
+  }
+  out += lastStatistics() ? "; statistics from a server seen" : "; no statistics from a server yet";
+  if (node_.secure()) {
+    out +=
+        " (secure: a server that did not authenticate this identity matches nothing; its log names each "
+        "refused participant)";
+  }
+  return out;
 }
 
 msg::Scan toMessage(const std::string& robot_id, std::uint64_t seq, const io::Scan& scan) {

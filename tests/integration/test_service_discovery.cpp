@@ -3,12 +3,15 @@
 // (multicast blocked on the links) the same settings are exercised by tests/load/cross_host.sh.
 #include <algorithm>
 #include <chrono>
+#include <optional>
+#include <thread>
 
 #include <gtest/gtest.h>
 
 #include "densemap/cli/option_cli.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
+#include "densemap/client/server_join.h"
 #include "densemap/msg/dds_options_cli.h"
 #include "service_harness.h"
 #include "test_simulator.h"
@@ -88,4 +91,62 @@ TEST(DdsOptions, UnicastPeersAloneDiscoverTheServer) {
   EXPECT_EQ(r.status(), msg::STATUS_OK);
   EXPECT_EQ(r.stats().map_version(), scans.size());
   EXPECT_GT(r.stats().known_cells(), 0u);
+}
+
+// client::joinServer (densemap-replay --rejoin-after): a participant not matched within an attempt is
+// replaced by a new one, and the wait goes on with it until the server comes. Here no server is up for the
+// first attempts, so the participant is replaced; the last one joins and its scans are mapped.
+TEST(ServerJoin, AParticipantNotMatchedIsReplacedAndTheNewOneJoins) {
+  const int domain = 101;
+  msg::DdsOptions dds;
+  dds.domain = domain;
+  dds.loopback = true;
+  std::optional<msg::DdsNode> node;
+  std::optional<client::ScanPublisher> publisher;
+  int made = 0;
+  const auto make = [&] {
+    publisher.reset();
+    node.reset();
+    node.emplace(dds);
+    publisher.emplace(*node, std::vector<std::string>{"rejoining-robot"});
+    ++made;
+  };
+  make();
+  std::optional<test::TestServer> srv;
+  std::thread late([&] {
+    std::this_thread::sleep_for(std::chrono::seconds(5));
+    srv.emplace(test::serverOptions(domain));
+  });
+  const auto j = client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, make,
+                                    std::chrono::seconds(30), std::chrono::milliseconds(1500));
+  late.join();
+  ASSERT_TRUE(j.joined) << j.state;
+  EXPECT_GE(j.rejoins, 2) << "the participant was not replaced while no server was up";
+  EXPECT_EQ(made, j.rejoins + 1);
+  io::LidarSimulator sim(test::smallSimulator(2, 16, 256));
+  for (std::size_t i = 0; i < sim.size(); ++i)
+    ASSERT_TRUE(publisher->publish("rejoining-robot", i, sim.read(i)));
+  EXPECT_EQ(publisher->waitForAcks({"rejoining-robot"}, sim.size(), std::chrono::seconds(30)).applied,
+            sim.size());
+  publisher.reset();
+  node.reset();
+}
+
+// Without a server at all the wait ends at its timeout, not matched, saying what is missing.
+TEST(ServerJoin, NoServerEndsAtTheTimeoutWithTheMissingMatches) {
+  msg::DdsOptions dds;
+  dds.domain = 102;
+  dds.loopback = true;
+  msg::DdsNode node(dds);
+  client::ScanPublisher publisher(node, {"lonely-robot"});
+  int rejoins = 0;
+  const auto j = client::joinServer([&]() -> client::ScanPublisher& { return publisher; }, [&] { ++rejoins; },
+                                    std::chrono::milliseconds(1200), std::chrono::milliseconds(500));
+  EXPECT_FALSE(j.joined);
+  EXPECT_EQ(j.rejoins, rejoins);
+  // Attempts of 500, 500 and the last 200 ms: a replacement after each full one (fewer when one overran).
+  EXPECT_GE(j.rejoins, 1);
+  EXPECT_LE(j.rejoins, 2);
+  EXPECT_NE(j.state.find("lonely-robot: scans read by 0 server reader(s)"), std::string::npos) << j.state;
+  EXPECT_NE(j.state.find("no statistics from a server yet"), std::string::npos) << j.state;
 }

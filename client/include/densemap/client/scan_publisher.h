@@ -46,6 +46,10 @@ class ScanPublisher {
   /// When waitForServer first saw the writer and the acknowledgement reader matched both ways (in secure
   /// mode: after the server authenticated this participant and granted its permissions).
   std::optional<std::chrono::steady_clock::time_point> matchedAt() const { return matched_at_; }
+  /// What waitForServer is still waiting for, per robot (for the message when it times out): how many
+  /// server readers the scan writer matched, how many server writers the acknowledgement reader matched,
+  /// and whether a statistics message arrived.
+  std::string joinState();
 
   /// Publishes one scan for `robot_id`: sensor-frame points (or world-frame points when the scan is in the
   /// world frame, sent with frame_id "world"), the pose as position + unit quaternion, the LiDAR geometry.
