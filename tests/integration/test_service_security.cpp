@@ -86,8 +86,8 @@ using AckCounter = Counter<msg::ScanAck, msg::ScanAckPubSubType>;
 using ReplyCounter = Counter<msg::QueryReply, msg::QueryReplyPubSubType>;
 
 /// A robot joined as densemap-replay joins (client::joinServer): its participant is replaced when the server
-/// has not matched it within 15 s, which gets past Fast DDS 2.9's rare stalled secure join. Used where a
-/// valid robot joins beside refused participants, the setting in which CI saw such a stall.
+/// has not matched it within 15 s, meant to get past Fast DDS 2.9's rare stalled secure join (CI saw one
+/// where a valid robot joined beside a refused participant). Used for the robots that must get in.
 class JoiningRobot {
  public:
   JoiningRobot(int domain, fs::path identity, std::vector<std::string> ids)
@@ -103,6 +103,7 @@ class JoiningRobot {
   }
   const std::string& why() const { return why_; }
   client::ScanPublisher& publisher() { return *publisher_; }
+  msg::DdsNode& node() { return *node_; }
 
  private:
   void make() {
@@ -128,11 +129,10 @@ msg::QueryReply statsOf(client::QueryClient& c) {
 TEST(Security, EveryRoleDoesWhatItIsFor) {
   Keystore keys;
   TestServer server(secureServer(201, keys / "server"));
-  msg::DdsNode robot_node(ddsAs(201, keys / "robot-1"));
-  EXPECT_EQ(robot_node.identity().name, "robot-1");
-  client::ScanPublisher robot(robot_node, {"robot-1"});
-  ASSERT_TRUE(robot.waitForServer(30s))
-      << "the robot was not authenticated and matched: " << robot.joinState();
+  JoiningRobot robot1(201, keys / "robot-1", {"robot-1"});
+  ASSERT_TRUE(robot1.join()) << "the robot was not authenticated and matched: " << robot1.why();
+  EXPECT_EQ(robot1.node().identity().name, "robot-1");
+  client::ScanPublisher& robot = robot1.publisher();
   const auto sent = scans(3);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
   EXPECT_EQ(robot.waitForAcks({"robot-1"}, sent.size(), 60s).applied, sent.size());
@@ -154,11 +154,11 @@ TEST(Security, EveryRoleDoesWhatItIsFor) {
 TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
   Keystore keys;
   TestServer server(secureServer(202, keys / "server"));
-  msg::DdsNode robot_node(ddsAs(202, keys / "robot-1"));
-  client::ScanPublisher robot(robot_node, {"robot-1"});
+  JoiningRobot robot1(202, keys / "robot-1", {"robot-1"});
   msg::DdsNode client_node(ddsAs(202, keys / "client-1"));
   client::QueryClient query(client_node, "client-1");
-  ASSERT_TRUE(robot.waitForServer(30s)) << robot.joinState();
+  ASSERT_TRUE(robot1.join()) << robot1.why();
+  client::ScanPublisher& robot = robot1.publisher();
   ASSERT_TRUE(query.waitForServer(30s));
 
   // The intruder: plain DDS on the same domain, listening to everything the legitimate ones exchange.
