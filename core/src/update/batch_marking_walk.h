@@ -34,10 +34,20 @@ class BatchMarkingWalk {
 
   BatchMarkingWalk(map::ScanEvidence& ev, int lane) : ev_(ev), lane_(lane) {}
 
-  /// geometry::walkForward marking every cell; returns the number of cells marked.
+  /// What the walks' hit marks found (see TraceCounters::hit_cells and shared_walks).
+  struct EndCounts {
+    std::uint64_t first_hits = 0, shared_walks = 0;
+  };
+  const EndCounts& endCounts() const { return ends_; }
+
+  /// geometry::walkForward marking every cell; returns the number of cells marked. `end_hit`: also mark the
+  /// endpoint's cell hit (batch semantics: the order of free and hit marks does not matter).
   template <int kSx, int kSy, int kSz>
-  std::uint64_t forward(const geometry::RaySetup& r) {
-    if (r.origin_key == r.end_key) return 0;
+  std::uint64_t forward(const geometry::RaySetup& r, bool end_hit = false) {
+    if (r.origin_key == r.end_key) {
+      if (end_hit) countEnd(markHitSlow(r.end_key[0], r.end_key[1], r.end_key[2]), 0);
+      return 0;
+    }
     ForwardRay s;
     start(s, r);
     markCell(s.target, s.m, s.k);
@@ -45,6 +55,7 @@ class BatchMarkingWalk {
       while (advance<kSx, kSy, kSz, true>(s)) {
       }
     }
+    if (end_hit) markEnd(s);
     return s.visits;
   }
 
@@ -56,7 +67,8 @@ class BatchMarkingWalk {
   /// the cell is marked once. Each ray's comparisons, end and length tests are its own walk's, so the cells
   /// are exactly those of two forward() calls.
   template <int kSx, int kSy, int kSz>
-  std::uint64_t forwardPair(const geometry::RaySetup& ra, const geometry::RaySetup& rb) {
+  std::uint64_t forwardPair(const geometry::RaySetup& ra, const geometry::RaySetup& rb,
+                            bool end_hit_a = false, bool end_hit_b = false) {
     ForwardRay a, b;
     start(a, ra);
     start(b, rb);
@@ -102,6 +114,8 @@ class BatchMarkingWalk {
       while (advance<kSx, kSy, kSz, true>(b)) {
       }
     }
+    if (end_hit_a) markEnd(a);
+    if (end_hit_b) markEnd(b);
     return a.visits + b.visits;
   }
 
@@ -176,6 +190,7 @@ class BatchMarkingWalk {
     int k[3], e[3];
     unsigned m;
     int steps_to_end;
+    int walk_cells;  // the walk's length in cells had it reached its end: its L1 distance
     double length;
     std::uint64_t visits;
     Target target;
@@ -192,6 +207,7 @@ class BatchMarkingWalk {
     // Every step moves one cell along the ray's step signs, so the end cell can be reached only after
     // exactly its L1 distance in steps: one counter replaces the three-way key test of every step.
     s.steps_to_end = std::abs(s.e[0] - s.k[0]) + std::abs(s.e[1] - s.k[1]) + std::abs(s.e[2] - s.k[2]);
+    s.walk_cells = s.steps_to_end;
     enterBlock(s.target, s.k[0], s.k[1], s.k[2]);
     s.m = static_cast<unsigned>(map::voxelIndexInBlock(r.origin_key));
     s.visits = 1;  // the origin's cell, marked by the caller
@@ -324,6 +340,30 @@ class BatchMarkingWalk {
     }
     return c;
   }
+  /// Marks a finished walk's endpoint cell hit: where the walk ended in it (the usual case), through the
+  /// block it holds, with no lookup. The hit planes are shared by all threads, hence the atomic set.
+  void markEnd(const ForwardRay& s) {
+    if (s.k[0] == s.e[0] && s.k[1] == s.e[1] && s.k[2] == s.e[2] && s.target.block != nullptr) [[likely]] {
+      countEnd(s.target.block->hit.setAtomic(static_cast<int>(s.m)), s.walk_cells);
+    } else {  // stopped short by OctoMap's length test, or the end cell's block is not allocated yet
+      countEnd(markHitSlow(s.e[0], s.e[1], s.e[2]), s.walk_cells);
+    }
+  }
+  void countEnd(bool first, int walk_cells) {
+    if (first) {
+      ++ends_.first_hits;
+    } else {
+      ends_.shared_walks += static_cast<std::uint64_t>(walk_cells);
+    }
+  }
+  /// As map::EvidenceCursor::markHit: true when the cell had no hit yet (cells outside the box: false).
+  [[gnu::noinline, gnu::cold]] bool markHitSlow(int kx, int ky, int kz) {
+    const geometry::VoxelKey k = key(kx, ky, kz);
+    if (map::EvidenceBlock* b = ev_.block(k)) return b->hit.setAtomic(map::voxelIndexInBlock(k));
+    ev_.markHit(k);
+    return false;
+  }
+
   static geometry::VoxelKey key(int kx, int ky, int kz) {
     return geometry::VoxelKey{{static_cast<geometry::KeyCoord>(kx), static_cast<geometry::KeyCoord>(ky),
                                static_cast<geometry::KeyCoord>(kz)}};
@@ -332,6 +372,7 @@ class BatchMarkingWalk {
   map::ScanEvidence& ev_;
   int lane_;
   Target cur_;  // the backward walks' block
+  EndCounts ends_;
 };
 
 /// Calls f.template operator()<kSx, kSy, kSz>() with the ray's step signs (an axis with no step gets +1).

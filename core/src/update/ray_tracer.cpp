@@ -67,7 +67,7 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
   const std::size_t every = std::max<std::size_t>(o.sample_every, 1);
   const auto subset = o.subset;
   const auto& conv = map.converter();
-  std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0;
+  std::uint64_t traversed = 0, fallbacks = 0, unnecessary = 0, hit_cells = 0, shared_walks = 0;
   VoxelKey origin_key;  // once per scan, not per ray
   const bool origin_ok = conv.toKey(origin, origin_key);
   const std::size_t known_keys = o.end_keys != nullptr ? std::min(o.end_keys->size(), rays.size()) : 0;
@@ -78,7 +78,10 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     }
     return geometry::setupRay(conv, origin, origin_key, rays.end(i), s);
   };
-#pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary)
+  constexpr bool kPairs = !kCounting && !kCountUnnecessary && !kBackward;
+  // The pair walks mark the endpoints' cells hit too (rays i < known_keys are the scan's endpoints).
+  const bool marks_hits = kPairs && subset == TraceOptions::Subset::kAll && origin_ok;
+#pragma omp parallel reduction(+ : traversed, fallbacks, unnecessary, hit_cells, shared_walks)
   {
     Marker<kCountUnnecessary, kCounting> mark(map, ev);
     [[maybe_unused]] BatchMarkingWalk fast(
@@ -86,7 +89,6 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     geometry::WalkStats ws;
     // Batch semantics, forward, every ray: neighbouring rays (a ring's consecutive points) are walked in
     // pairs, sharing the steps while they are in the same cell (BatchMarkingWalk::forwardPair).
-    constexpr bool kPairs = !kCounting && !kCountUnnecessary && !kBackward;
     if (kPairs && subset == TraceOptions::Subset::kAll) {
       const std::size_t n = rays.size();
 #pragma omp for schedule(dynamic, 128) nowait
@@ -96,19 +98,20 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
         RaySetup sa, sb;
         const bool ok_a = setupAt(i, sa);
         const bool ok_b = i + 1 < n && setupAt(i + 1, sb);
+        const bool hit_a = i < known_keys, hit_b = i + 1 < known_keys;
         if (ok_a && ok_b && sa.step[0] == sb.step[0] && sa.step[1] == sb.step[1] &&
             sa.step[2] == sb.step[2] && !(sa.end_key == origin_key) && !(sb.end_key == origin_key)) {
           mark.visits += withStepSigns(sa, [&]<int kSx, int kSy, int kSz>() {
-            return fast.template forwardPair<kSx, kSy, kSz>(sa, sb);
+            return fast.template forwardPair<kSx, kSy, kSz>(sa, sb, hit_a, hit_b);
           });
           continue;
         }
-        auto single = [&](const RaySetup& s) {
+        auto single = [&](const RaySetup& s, bool hit) {
           mark.visits += withStepSigns(
-              s, [&]<int kSx, int kSy, int kSz>() { return fast.template forward<kSx, kSy, kSz>(s); });
+              s, [&]<int kSx, int kSy, int kSz>() { return fast.template forward<kSx, kSy, kSz>(s, hit); });
         };
-        if (ok_a) single(sa);
-        if (ok_b) single(sb);
+        if (ok_a) single(sa, hit_a);
+        if (ok_b) single(sb, hit_b);
       }
     } else {
 #pragma omp for schedule(dynamic, 256) nowait
@@ -158,9 +161,15 @@ TraceCounters traceEach(const map::OccupancyMap& map, map::ScanEvidence& ev, con
     traversed += mark.visits;
     unnecessary += mark.useless;
     fallbacks += ws.fallbacks;
+    hit_cells += fast.endCounts().first_hits;
+    shared_walks += fast.endCounts().shared_walks;
   }
   if constexpr (!kCounting && !kCountUnnecessary) ev.mergeFreeLanes();
-  return {traversed, fallbacks, unnecessary};
+  TraceCounters c{traversed, fallbacks, unnecessary};
+  c.hits_marked = marks_hits && o.end_keys != nullptr && known_keys == o.end_keys->size();
+  c.hit_cells = hit_cells;
+  c.shared_walks = shared_walks;
+  return c;
 }
 
 template <bool kCountUnnecessary, bool kCounting, class Rays>

@@ -224,6 +224,9 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
     tc.traversed += c.traversed;
     tc.fallbacks += c.fallbacks;
     tc.unnecessary += c.unnecessary;
+    tc.hits_marked = c.hits_marked;
+    tc.hit_cells += c.hit_cells;
+    tc.shared_walks += c.shared_walks;
   };
   auto trace = [&](const TraceOptions& o) {
     add(in_place ? traceRays(map, evidence_, origin, at, o) : traceRays(map, evidence_, origin, rays, o));
@@ -252,19 +255,23 @@ std::optional<UpdateStats> UpdateEngine::insert(map::OccupancyMap& map, const st
   // Occupied endpoints (after the free pass, as in OctoMap; the semantics decide how they combine).
   // For the default method's rule below: distinct endpoint cells, and the walks of the endpoints whose cell
   // another endpoint already had (what grouping rays by endpoint cell, as super rays do, could save).
-  std::uint64_t end_cells = 0, shared_walks = 0;
+  std::uint64_t end_cells = tc.hit_cells, shared_walks = tc.shared_walks;
+  // The forward pair walks mark them where they end (TraceCounters::hits_marked); the other walks leave
+  // them to this pass.
+  if (!tc.hits_marked) {
 #pragma omp parallel reduction(+ : end_cells, shared_walks)
-  {
-    map::EvidenceCursor cursor(ev);
+    {
+      map::EvidenceCursor cursor(ev);
 #pragma omp for schedule(static) nowait
-    for (std::size_t i = 0; i < end_keys.size(); ++i) {
-      const VoxelKey& k = end_keys[i];
-      if (counting ? cursor.addHit(k, 1) : cursor.markHit(k)) {
-        ++end_cells;
-      } else {
-        for (int a = 0; a < 3; ++a)
-          shared_walks +=
-              static_cast<std::uint64_t>(std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
+      for (std::size_t i = 0; i < end_keys.size(); ++i) {
+        const VoxelKey& k = end_keys[i];
+        if (counting ? cursor.addHit(k, 1) : cursor.markHit(k)) {
+          ++end_cells;
+        } else {
+          for (int a = 0; a < 3; ++a)
+            shared_walks += static_cast<std::uint64_t>(
+                std::abs(static_cast<int>(k[a]) - static_cast<int>(origin_key[a])));
+        }
       }
     }
   }

@@ -28,6 +28,11 @@ struct TraceCounters {
   std::uint64_t traversed = 0;    ///< cell visits
   std::uint64_t fallbacks = 0;    ///< backward walks finished forward because of a rounding tie
   std::uint64_t unnecessary = 0;  ///< visits of cells already fully free (when counted)
+  /// Batch semantics, forward walks of endpoints with known keys: the walks marked each endpoint's cell hit
+  /// themselves (where they end, with the cell's block at hand), so the caller must not mark them again.
+  bool hits_marked = false;
+  std::uint64_t hit_cells = 0;  ///< endpoints that were the first of this scan in their cell (inside the box)
+  std::uint64_t shared_walks = 0;  ///< summed walk lengths (cells) of the other endpoints
 };
 
 /// Records the free cells of every ray from `origin` to `rays[i].end` (excluding the end cell) with weight
