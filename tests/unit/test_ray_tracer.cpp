@@ -3,7 +3,7 @@
 // every direction, across block boundaries, on exact ties (backward walks fall back to OctoMap's order),
 // outside the scan's evidence box (overflow cells), and stopping at the culling region. Neighbouring rays
 // of a ring are walked in pairs that share their steps while in the same cell: those must mark and count
-// exactly what walking them one by one does.
+// exactly what walking them one by one does, and mark the endpoints' cells hit where they end.
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -240,6 +240,88 @@ TEST(TraceRays, PointsWalkedInPlaceMarkOctomapsCells) {
         EXPECT_EQ(c.traversed, expected_traversals) << "res " << res << " backward " << backward;
       }
   }
+}
+
+std::set<std::uint64_t> markedHit(const map::ScanEvidence& ev) {
+  std::set<std::uint64_t> out;
+  ev.forEachBlock([&](const map::EvidenceBlock& b) {
+    b.forEachEvidenceVoxel([&](int v) {
+      if (b.hit.test(v)) out.insert(b.voxelKey(v).packed());
+    });
+  });
+  ev.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t, std::uint32_t nh) {
+    if (nh > 0) out.insert(k.packed());
+  });
+  return out;
+}
+
+// The forward pair walks of a scan's endpoints mark each endpoint's cell hit where they end (the engine
+// then skips its own pass over the endpoints). Every endpoint cell must be hit: those the walks reach, rays
+// ending in the sensor's cell, rays ending on cell corners from an origin on grid planes (where OctoMap's
+// rounding can stop a walk short of its end cell) and cells outside the evidence box (overflow). The counts
+// the default method's rule reads must be those of the engine's pass: distinct endpoint cells inside the
+// box, and the walk lengths of the other endpoints. Walks that do not mark hits (backward, or rays given
+// without the endpoints' keys) must say so and leave them alone.
+TEST(TraceRays, ForwardPairWalksMarkTheEndpointsHit) {
+  const int before = omp_get_max_threads();
+  for (double res : {0.2, 0.4}) {
+    map::GridMap grid(res);
+    const auto& conv = grid.converter();
+    for (bool ties : {false, true}) {
+      Vec3f o;
+      std::vector<SuperRay> rays = testRays(res, o, ties);  // random rays, or rays to cell corners
+      for (const SuperRay& r : ringRays(o)) rays.push_back(r);
+      std::vector<Vec3f> ends;
+      std::vector<VoxelKey> keys;
+      for (const SuperRay& r : rays) {
+        ends.push_back(r.end);
+        VoxelKey k;
+        ASSERT_TRUE(conv.toKey(r.end, k));
+        keys.push_back(k);
+      }
+      VoxelKey ok;
+      ASSERT_TRUE(conv.toKey(o, ok));
+      // A box smaller than the rays' reach: part of the endpoints are overflow cells.
+      const int half_cells = static_cast<int>(std::lround(20.0 / res));
+      for (int team : {1, 2}) {
+        omp_set_num_threads(team);
+        map::ScanEvidence ev;
+        resetAround(ev, conv, o, half_cells);
+        std::set<std::uint64_t> expected_hits, inside;
+        std::uint64_t expected_shared = 0;  // in ray order, as one thread walks them
+        for (const VoxelKey& k : keys) {
+          const bool first = expected_hits.insert(k.packed()).second && ev.insideBox(k);
+          if (first) inside.insert(k.packed());
+          if (!first)
+            for (int a = 0; a < 3; ++a) expected_shared += static_cast<std::uint64_t>(std::abs(k[a] - ok[a]));
+        }
+        ASSERT_GT(inside.size(), 100u);
+        ASSERT_GT(expected_hits.size(), inside.size() + 100u) << "some endpoints must be overflow cells";
+        TraceOptions opt;
+        opt.end_keys = &keys;
+        const TraceCounters c = traceRays(grid, ev, o, ends, opt);
+        EXPECT_TRUE(c.hits_marked);
+        EXPECT_EQ(markedHit(ev), expected_hits) << "res " << res << " ties " << ties << ", team " << team;
+        EXPECT_EQ(c.hit_cells, inside.size()) << "res " << res << ", " << team;
+        if (team == 1) {
+          EXPECT_EQ(c.shared_walks, expected_shared) << "res " << res << " ties " << ties;
+        }
+      }
+      omp_set_num_threads(before);
+      for (bool backward : {false, true}) {
+        TraceOptions opt;
+        opt.backward = backward;
+        if (backward) opt.end_keys = &keys;  // forward: without the keys, the rays are not the endpoints
+        map::ScanEvidence ev;
+        resetAround(ev, conv, o, half_cells);
+        const TraceCounters c = traceRays(grid, ev, o, ends, opt);
+        EXPECT_FALSE(c.hits_marked) << "backward " << backward;
+        EXPECT_TRUE(markedHit(ev).empty()) << "backward " << backward;
+        EXPECT_EQ(c.hit_cells, 0u);
+      }
+    }
+  }
+  omp_set_num_threads(before);
 }
 
 TEST(TraceRays, BackwardBatchWalksStopOnEnteringTheRegion) {

@@ -20,7 +20,8 @@ struct TraceOptions {
   std::size_t sample_every = 8;
   bool count_unnecessary = false;
   /// conv.toKey(rays[i].end) for i < end_keys->size(), where the caller has them already (the engine's
-  /// preparation converts every endpoint): the walks then skip converting them again.
+  /// preparation converts every endpoint): the walks then skip converting them again. Those rays end at the
+  /// scan's endpoints: the forward pair walks (batch semantics, all rays) mark their cells hit too.
   const std::vector<geometry::VoxelKey>* end_keys = nullptr;
 };
 
