@@ -44,8 +44,9 @@ void ScanEvidence::reset(const VoxelKey& min_key, const VoxelKey& max_key, bool 
   std::size_t size = 1;
   for (int i = 0; i < 3; ++i) {
     lo_[i] = min_key[i] >> kBlockShift;
-    dims_[i] = (max_key[i] >> kBlockShift) - lo_[i] + 1;
-    size *= static_cast<std::size_t>(std::max(dims_[i], 0));
+    // An empty box (min above max) holds nothing: every cell goes to the overflow map.
+    dims_[i] = std::max((max_key[i] >> kBlockShift) - lo_[i] + 1, 0);
+    size *= static_cast<std::size_t>(dims_[i]);
   }
   if (size > directory_capacity_) {
     directory_ = std::make_unique<std::atomic<EvidenceBlock*>[]>(size);
