@@ -8,6 +8,8 @@
 
 namespace densemap::server {
 
+std::string errnoText() { return std::strerror(errno); }
+
 std::string writeAll(int fd, std::string_view bytes) {
   std::size_t done = 0;
   while (done < bytes.size()) {

@@ -20,8 +20,6 @@ namespace {
 
 constexpr std::size_t kMaxNameLength = 128;
 
-std::string errnoText() { return std::strerror(errno); }
-
 }  // namespace
 
 int MapDirectory::descriptor(bool create) const {

@@ -11,7 +11,7 @@ namespace densemap::cli {
 
 namespace {
 
-std::string quoted(const std::string& s) {
+std::string tomlQuoted(const std::string& s) {
   std::string out = "\"";
   for (const char c : s) {
     if (c == '"' || c == '\\') out += '\\';
@@ -52,10 +52,10 @@ std::string tomlValue(const OptionSpec::Target& target) {
         } else if constexpr (std::is_same_v<T, double>) {
           return number(*p);
         } else if constexpr (std::is_same_v<T, std::string>) {
-          return quoted(*p);
+          return tomlQuoted(*p);
         } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
           std::string out = "[";
-          for (std::size_t i = 0; i < p->size(); ++i) out += (i ? ", " : "") + quoted((*p)[i]);
+          for (std::size_t i = 0; i < p->size(); ++i) out += (i ? ", " : "") + tomlQuoted((*p)[i]);
           return out + "]";
         } else {
           return std::to_string(*p);

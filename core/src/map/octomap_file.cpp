@@ -10,7 +10,7 @@ namespace densemap::map {
 
 namespace {
 
-constexpr unsigned kTreeDepth = 16;
+using geometry::kKeyDepth;
 constexpr std::string_view kBinaryFirstLine = "# Octomap OcTree binary file";
 constexpr std::string_view kFullFirstLine = "# Octomap OcTree file";
 constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
@@ -75,7 +75,7 @@ OctomapHeader parseHeader(std::string_view bytes) {
   return h;
 }
 
-/// Walks the node data depth first (at most kTreeDepth deep: the recursion is bounded by the format).
+/// Walks the node data depth first (at most kKeyDepth deep: the recursion is bounded by the format).
 class NodeReader {
  public:
   NodeReader(std::string_view data, const std::function<void(const OctomapLeaf&)>& leaf)
@@ -97,7 +97,7 @@ class NodeReader {
         inner[i] = true;
         continue;
       }
-      if (depth + 1 > kTreeDepth) throw error("a leaf below the finest level");
+      if (depth + 1 > kKeyDepth) throw error("a leaf below the finest level");
       ++nodes_;
       OctomapLeaf l;
       l.lo = child(lo, depth, i);
@@ -108,7 +108,7 @@ class NodeReader {
     if (!any) throw error("an inner node without children");
     for (unsigned i = 0; i < 8; ++i) {
       if (!inner[i]) continue;
-      if (depth + 1 >= kTreeDepth) throw error("an inner node at the finest level");
+      if (depth + 1 >= kKeyDepth) throw error("an inner node at the finest level");
       binaryNode(child(lo, depth, i), depth + 1);
     }
   }
@@ -130,7 +130,7 @@ class NodeReader {
       leaf_(l);
       return;
     }
-    if (depth >= kTreeDepth) throw error("children below the finest level");
+    if (depth >= kKeyDepth) throw error("children below the finest level");
     for (unsigned i = 0; i < 8; ++i) {
       if ((children >> i) & 1u) fullNode(child(lo, depth, i), depth + 1);
     }
@@ -139,7 +139,7 @@ class NodeReader {
  private:
   static geometry::VoxelKey child(const geometry::VoxelKey& lo, unsigned depth, unsigned i) {
     // Child i of a node at `depth`: bit 0 of i is x, bit 1 y, bit 2 z (OctoMap's computeChildIdx).
-    const unsigned half = 1u << (kTreeDepth - depth - 1);
+    const unsigned half = 1u << (kKeyDepth - depth - 1);
     geometry::VoxelKey k = lo;
     for (int a = 0; a < 3; ++a) {
       if ((i >> a) & 1u) k[a] = static_cast<geometry::KeyCoord>(k[a] + half);

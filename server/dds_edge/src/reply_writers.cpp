@@ -18,7 +18,7 @@ using namespace std::chrono_literals;
 namespace {
 // A writer whose client has no reader left is removed after this long unused (a client that restarts with
 // the same id within it finds its writer still there).
-constexpr auto kIdleBeforeRemoval = 30s;
+constexpr auto kIdleWriterRemoval = 30s;
 }  // namespace
 
 ReplyWriters::ReplyWriters(msg::DdsNode& node, std::string reply_topic,
@@ -137,7 +137,7 @@ void ReplyWriters::maintain() {
       for (auto it = writers_.begin(); it != writers_.end();) {
         fdds::PublicationMatchedStatus st;
         it->second->writer->get_publication_matched_status(st);
-        if (st.current_count == 0 && now - it->second->last_used > kIdleBeforeRemoval &&
+        if (st.current_count == 0 && now - it->second->last_used > kIdleWriterRemoval &&
             it->second.use_count() == 1) {
           gone.push_back(it->second->writer);
           it = writers_.erase(it);

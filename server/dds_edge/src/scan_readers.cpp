@@ -15,7 +15,7 @@ using namespace std::chrono_literals;
 namespace {
 // A reader whose robot has had no writer this long, and which holds nothing, is removed (a robot that
 // restarts within it finds its reader still there).
-constexpr auto kIdleBeforeRemoval = 30s;
+constexpr auto kIdleReaderRemoval = 30s;
 }  // namespace
 
 class ScanReaders::Listener : public fdds::DataReaderListener {
@@ -87,7 +87,7 @@ void ScanReaders::removeIdle() {
     it->second.reader->get_subscription_matched_status(st);
     if (st.current_count > 0) it->second.unmatched_since = now;
     // With no writer left nothing new arrives, so nothing unread is lost with the reader.
-    if (st.current_count == 0 && now - it->second.unmatched_since > kIdleBeforeRemoval &&
+    if (st.current_count == 0 && now - it->second.unmatched_since > kIdleReaderRemoval &&
         it->second.reader->get_unread_count() == 0) {
       node_.remove(it->second.reader);
       it = readers_.erase(it);

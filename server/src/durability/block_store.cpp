@@ -23,8 +23,6 @@ namespace {
 constexpr std::string_view kSuffix = ".dmb";
 constexpr std::string_view kTmpSuffix = ".dmb.tmp";
 
-std::string errnoText() { return std::strerror(errno); }
-
 /// Exactly `digits` characters of the given base.
 std::optional<std::uint64_t> parseDigits(std::string_view s, std::size_t digits, int base) {
   if (s.size() != digits) return std::nullopt;

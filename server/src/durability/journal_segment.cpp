@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "densemap/server/durability/checksum.h"
+#include "densemap/server/file_descriptor_io.h"
 #include "densemap/util/byte_codec.h"
 #include "densemap/util/wall_clock.h"
 
@@ -21,8 +22,6 @@ namespace {
 constexpr std::uint64_t kSegmentMagic = 0x31304C4E524A4D44ull;  // "DMJRNL01"
 constexpr std::uint32_t kSegmentVersion = 1;
 constexpr std::uint32_t kRecordMagic = 0x524A4D44;  // "DMJR"
-
-std::string errnoText() { return std::strerror(errno); }
 
 struct ParsedHeader {
   RecordView view;
@@ -170,8 +169,8 @@ void syncDirectory(const std::filesystem::path& dir) {
 
 namespace {
 
-/// Writes all of `data` at `offset`; false with errno set on failure.
-bool writeAll(int fd, const char* data, std::size_t n, std::uint64_t offset) {
+/// Writes all of `data` at `offset` (pwrite); false with errno set on failure.
+bool pwriteAll(int fd, const char* data, std::size_t n, std::uint64_t offset) {
   while (n > 0) {
     const ssize_t w = ::pwrite(fd, data, n, static_cast<off_t>(offset));
     if (w < 0) {
@@ -247,7 +246,7 @@ void JournalWriter::openNew() {
   const std::filesystem::path path = dir_ / segmentFileName(next_lsn_);
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw StorageError(fmt::format("cannot create journal {}: {}", path.string(), errnoText()));
-  if (!writeAll(fd, header.data(), header.size(), 0) || ::fsync(fd) != 0) {
+  if (!pwriteAll(fd, header.data(), header.size(), 0) || ::fsync(fd) != 0) {
     const std::string err = errnoText();
     ::close(fd);
     std::filesystem::remove(path, ec);
@@ -286,8 +285,8 @@ std::uint64_t JournalWriter::append(RecordKind kind, std::string_view payload) {
   w.put(static_cast<std::uint64_t>(payload.size()));
   w.put(crc32Of(payload));
   w.put(crc32Of(header));
-  if (!writeAll(fd_, header.data(), header.size(), size_) ||
-      !writeAll(fd_, payload.data(), payload.size(), size_ + header.size())) {
+  if (!pwriteAll(fd_, header.data(), header.size(), size_) ||
+      !pwriteAll(fd_, payload.data(), payload.size(), size_ + header.size())) {
     const std::string err = errnoText();
     // Cut the partial record off, so the next record follows the last whole one.
     if (::ftruncate(fd_, static_cast<off_t>(size_)) != 0) {

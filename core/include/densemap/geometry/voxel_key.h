@@ -14,6 +14,8 @@ namespace densemap::geometry {
 using Vec3f = Eigen::Vector3f;
 using KeyCoord = std::uint16_t;
 
+/// Bits per key axis: OctoMap's tree depth.
+inline constexpr unsigned kKeyDepth = 16;
 /// Half the key range: the key of coordinate 0 (OctoMap's tree_max_val for depth 16).
 inline constexpr int kKeyCenter = 32768;
 

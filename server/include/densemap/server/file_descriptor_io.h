@@ -8,6 +8,9 @@
 
 namespace densemap::server {
 
+/// What errno says now (strerror), for messages.
+std::string errnoText();
+
 /// Writes every byte; returns empty when done, else what went wrong (strerror).
 std::string writeAll(int fd, std::string_view bytes);
 
