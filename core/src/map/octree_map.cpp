@@ -11,7 +11,7 @@ namespace densemap::map {
 
 namespace {
 
-constexpr unsigned kTreeDepth = 16;
+using geometry::kKeyDepth;
 
 /// OctoMap's computeChildIdx.
 inline unsigned childIndex(const VoxelKey& k, unsigned level) {
@@ -47,6 +47,7 @@ class BatchTreeUpdater {
  public:
   // Subtrees of 16^3 voxels: enough tasks per scan to balance two or more threads.
   static constexpr unsigned kSplitDepth = 12;
+  static_assert(kKeyDepth - kSplitDepth == kBlockShift, "an evidence block is one subtree at kSplitDepth");
 
   /// `factories`: empty OcTrees reused across scans as per-thread node factories (an OcTree allocates a
   /// large ray buffer when constructed, so they are kept by the map).
@@ -70,7 +71,47 @@ class BatchTreeUpdater {
     upper_.clear();
     // Serial top: expand/create down to kSplitDepth, remembering the subtrees and the upper nodes.
     descend(tree_, tree_.getRoot(), false, 0, entries.data() + start, entries.data() + entries.size(), true);
-    // Parallel subtrees.
+    runTasks(nullptr, nullptr);
+  }
+
+  /// The same update for evidence blocks (Morton-sorted, each with evidence) when the tree has a root. An
+  /// evidence block is exactly one subtree at kSplitDepth, so the serial top follows one key per block and
+  /// each parallel task lists its own block's cells (into `scratch`, one list per thread, small enough to
+  /// stay in cache) instead of a serial pass listing every cell first. Where the top meets a pruned leaf
+  /// above kSplitDepth, OctoMap's early abort needs every cell below it: those blocks' cells are listed
+  /// into `listed` and their whole subtree becomes one task.
+  void runByBlock(const std::vector<std::pair<std::uint64_t, const EvidenceBlock*>>& blocks,
+                  const ScanEvidence& evidence, std::vector<Entry>& listed,
+                  std::vector<std::vector<Entry>>& scratch) {
+    if (blocks.empty()) return;
+    tasks_.clear();
+    upper_.clear();
+    listed.clear();
+    evidence_ = &evidence;
+    descendBlocks(tree_.getRoot(), false, 0, blocks.data(), blocks.data() + blocks.size(), listed);
+    while (scratch.size() < static_cast<std::size_t>(omp_get_max_threads()))
+      scratch.emplace_back().reserve(kBlockVoxels);
+    runTasks(&listed, &scratch);
+  }
+
+ private:
+  using BlockRef = std::pair<std::uint64_t, const EvidenceBlock*>;
+
+  /// A subtree to update: its cells are [begin, end) of the entries, or (by-block runs) `block`'s cells,
+  /// or [first, last) of the listed entries.
+  struct Task {
+    octomap::OcTreeNode* node;
+    bool just_created;
+    unsigned depth;
+    Entry* begin = nullptr;
+    Entry* end = nullptr;
+    const EvidenceBlock* block = nullptr;
+    std::size_t first = 0, last = 0;
+  };
+
+  /// Runs the tasks in parallel, each thread creating and deleting nodes through its own factory, then
+  /// adds the factories' node counts to the tree and finishes the upper nodes.
+  void runTasks(std::vector<Entry>* listed, std::vector<std::vector<Entry>>* scratch) {
     const auto threads = static_cast<std::size_t>(omp_get_max_threads());
     auto& factories = factories_;
     while (factories.size() < threads)
@@ -79,9 +120,24 @@ class BatchTreeUpdater {
     for (std::size_t t = 0; t < factories.size(); ++t) before[t] = factories[t]->size();
 #pragma omp parallel for schedule(dynamic, 1)
     for (std::size_t i = 0; i < tasks_.size(); ++i) {
+      const auto thread = static_cast<std::size_t>(omp_get_thread_num());
       Task& t = tasks_[i];
-      descend(*factories[static_cast<std::size_t>(omp_get_thread_num())], t.node, t.just_created, kSplitDepth,
-              t.begin, t.end, false);
+      if (t.block != nullptr) {
+        // Voxel indices are Morton ranks within the block, so index order is OctoMap's child order.
+        std::vector<Entry>& list = (*scratch)[thread];
+        list.clear();
+        const EvidenceBlock* b = t.block;
+        b->forEachEvidenceVoxel([&](int v) {
+          const auto [nf, nh] = evidence_->counts(*b, v);
+          list.push_back({b->voxelKey(v), nf, nh});
+        });
+        t.begin = list.data();
+        t.end = list.data() + list.size();
+      } else if (listed != nullptr) {
+        t.begin = listed->data() + t.first;
+        t.end = listed->data() + t.last;
+      }
+      descend(*factories[thread], t.node, t.just_created, t.depth, t.begin, t.end, false);
     }
     // Node count changes made through each factory (unsigned wrap-around handles net deletions).
     for (std::size_t t = 0; t < factories.size(); ++t) tree_.addToNodeCount(factories[t]->size() - before[t]);
@@ -90,18 +146,48 @@ class BatchTreeUpdater {
       if (!tree_.pruneNode(n)) n->updateOccupancyChildren();
   }
 
- private:
-  struct Task {
-    octomap::OcTreeNode* node;
-    bool just_created;
-    Entry* begin;
-    Entry* end;
-  };
+  /// The serial top of a by-block run: creates the nodes down to kSplitDepth along the blocks' keys and
+  /// records one task per block, the upper nodes in post-order, and one task for the whole subtree of a
+  /// pruned leaf met on the way (as descend() would handle it, with its cells listed).
+  void descendBlocks(octomap::OcTreeNode* node, bool just_created, unsigned depth, const BlockRef* b,
+                     const BlockRef* e, std::vector<Entry>& listed) {
+    if (depth == kSplitDepth) {  // one block: blocks are distinct and aligned to the subtrees here
+      tasks_.push_back({.node = node, .just_created = just_created, .depth = depth, .block = b->second});
+      return;
+    }
+    if (!just_created && !tree_.nodeHasChildren(node)) {
+      Task t{.node = node, .just_created = false, .depth = depth, .first = listed.size()};
+      for (const BlockRef* it = b; it != e; ++it) {
+        const EvidenceBlock& block = *it->second;
+        block.forEachEvidenceVoxel([&](int v) {
+          const auto [nf, nh] = evidence_->counts(block, v);
+          listed.push_back({block.voxelKey(v), nf, nh});
+        });
+      }
+      t.last = listed.size();
+      tasks_.push_back(t);
+      return;
+    }
+    const unsigned level = kKeyDepth - 1 - depth;
+    for (const BlockRef* it = b; it != e;) {
+      const unsigned pos = childIndex(it->second->base, level);
+      const BlockRef* run_end = it + 1;
+      while (run_end != e && childIndex(run_end->second->base, level) == pos) ++run_end;
+      bool created = false;
+      if (!tree_.nodeChildExists(node, pos)) {
+        tree_.createNodeChild(node, pos);
+        created = true;
+      }
+      descendBlocks(tree_.getNodeChild(node, pos), created, depth + 1, it, run_end, listed);
+      it = run_end;
+    }
+    upper_.push_back(node);  // post-order: children (and their tasks) are recorded before the parent
+  }
 
   /// True when the entries (distinct keys, all inside the node at `depth`) cover every cell of that node
   /// and carry the same counts, so every cell ends with the same value.
   static bool updatesEveryCellAlike(const Entry* b, const Entry* e, unsigned depth) {
-    const auto cells = std::size_t{1} << (3 * (kTreeDepth - depth));
+    const auto cells = std::size_t{1} << (3 * (kKeyDepth - depth));
     return static_cast<std::size_t>(e - b) == cells && std::all_of(b + 1, e, [&](const Entry& x) {
              return x.n_free == b->n_free && x.n_hit == b->n_hit;
            });
@@ -111,7 +197,7 @@ class BatchTreeUpdater {
   /// the upper nodes' prune-or-max to the end instead of doing it on the way up.
   void descend(octomap::OcTree& factory, octomap::OcTreeNode* node, bool just_created, unsigned depth,
                Entry* b, Entry* e, bool top) {
-    if (depth == kTreeDepth) {
+    if (depth == kKeyDepth) {
       node->setLogOdds(applyCellUpdate(node->getLogOdds(), b->n_free, b->n_hit, lo_));
       return;
     }
@@ -129,10 +215,10 @@ class BatchTreeUpdater {
       factory.expandNode(node);
     }
     if (top && depth == kSplitDepth) {
-      tasks_.push_back({node, just_created, b, e});
+      tasks_.push_back({.node = node, .just_created = just_created, .depth = depth, .begin = b, .end = e});
       return;
     }
-    const unsigned level = kTreeDepth - 1 - depth;
+    const unsigned level = kKeyDepth - 1 - depth;
     for (Entry* it = b; it != e;) {
       const unsigned pos = childIndex(it->key, level);
       // Entries are in Morton order, so each child's entries are one run; near the root the runs are long
@@ -163,6 +249,7 @@ class BatchTreeUpdater {
   CountedOcTree& tree_;
   const LogOdds& lo_;
   std::vector<std::unique_ptr<octomap::OcTree>>& factories_;
+  const ScanEvidence* evidence_ = nullptr;  // by-block runs
   std::vector<Task> tasks_;
   std::vector<octomap::OcTreeNode*> upper_;
 };
@@ -198,9 +285,17 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
   // (Morton order within the block), which sorts every cell without a full sort.
   auto& blocks = blocks_;
   blocks.clear();
-  evidence.forEachBlock([&](const EvidenceBlock& b) { blocks.emplace_back(mortonCode(b.base), &b); });
+  evidence.forEachBlock([&](const EvidenceBlock& b) {
+    if (b.hasEvidence()) blocks.emplace_back(mortonCode(b.base), &b);  // a block may hold region marks only
+  });
   std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  // Each block's cells go to their own slice of the list (popcount prefix sums), filled in parallel.
+  if (tree_->getRoot() != nullptr && evidence.overflowCount() == 0) {
+    BatchTreeUpdater(*tree_, log_odds_, factories_).runByBlock(blocks, evidence, entries_, task_entries_);
+    return;
+  }
+  // An empty tree (its root is made by OctoMap's own updateNode) or cells outside the evidence box: every
+  // cell listed first, in Morton order. Each block's cells go to their own slice of the list (popcount
+  // prefix sums), filled in parallel.
   auto& entries = entries_;
   std::vector<std::size_t>& offset = offsets_;
   offset.assign(blocks.size() + 1, 0);
@@ -248,7 +343,7 @@ bool OctreeMap::isFullyFree(const VoxelKey& key) const {
 std::size_t OctreeMap::knownCells() const {
   std::size_t n = 0;
   for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
-    const std::size_t side = std::size_t{1} << (kTreeDepth - it.getDepth());
+    const std::size_t side = std::size_t{1} << (kKeyDepth - it.getDepth());
     n += side * side * side;
   }
   return n;
@@ -259,7 +354,7 @@ std::size_t OctreeMap::memoryBytes() const { return tree_->memoryUsage(); }
 void OctreeMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) const {
   for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
     const octomap::OcTreeKey base = it.getIndexKey();
-    const unsigned side = 1u << (kTreeDepth - it.getDepth());
+    const unsigned side = 1u << (kKeyDepth - it.getDepth());
     const float v = it->getLogOdds();
     for (unsigned x = 0; x < side; ++x)
       for (unsigned y = 0; y < side; ++y)
@@ -276,7 +371,7 @@ void OctreeMap::forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
   const octomap::OcTreeKey kmin(lo[0], lo[1], lo[2]), kmax(hi[0], hi[1], hi[2]);
   for (auto it = tree_->begin_leafs_bbx(kmin, kmax), end = tree_->end_leafs_bbx(); it != end; ++it) {
     const octomap::OcTreeKey base = it.getIndexKey();
-    const unsigned side = 1u << (kTreeDepth - it.getDepth());
+    const unsigned side = 1u << (kKeyDepth - it.getDepth());
     const float v = it->getLogOdds();
     for (unsigned x = 0; x < side; ++x)
       for (unsigned y = 0; y < side; ++y)
@@ -299,7 +394,7 @@ struct ChildArrayAccess : octomap::OcTreeNode {
 
 std::size_t CountedOcTree::countCells(const octomap::OcTreeNode* node, unsigned depth) const {
   if (!nodeHasChildren(node)) {
-    const std::size_t side = std::size_t{1} << (kTreeDepth - depth);
+    const std::size_t side = std::size_t{1} << (kKeyDepth - depth);
     return side * side * side;
   }
   std::size_t n = 0;
@@ -312,7 +407,7 @@ std::size_t CountedOcTree::countCells(const octomap::OcTreeNode* node, unsigned 
 std::size_t CountedOcTree::eraseRecurs(octomap::OcTreeNode* node, unsigned depth,
                                        const octomap::OcTreeKey& base, const octomap::OcTreeKey& lo,
                                        const octomap::OcTreeKey& hi, bool& emptied) {
-  const unsigned half = 1u << (kTreeDepth - depth - 1);
+  const unsigned half = 1u << (kKeyDepth - depth - 1);
   if (!nodeHasChildren(node)) expandNode(node);  // a pruned leaf crossing the box
   octomap::AbstractOcTreeNode**& children = node->*ChildArrayAccess::member();
   std::size_t erased = 0;

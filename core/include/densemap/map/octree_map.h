@@ -72,7 +72,8 @@ class OctreeMap : public OccupancyMap {
 
  private:
   std::unique_ptr<CountedOcTree> tree_;
-  std::vector<Entry> entries_;  // per-scan buffer, kept to avoid reallocating
+  std::vector<Entry> entries_;                    // per-scan buffer, kept to avoid reallocating
+  std::vector<std::vector<Entry>> task_entries_;  // one block's cells per thread (by-block updates)
   std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks_;
   std::vector<std::size_t> offsets_;
   std::vector<std::unique_ptr<octomap::OcTree>> factories_;  // per-thread node factories for apply()
