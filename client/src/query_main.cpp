@@ -1,5 +1,6 @@
 // densemap-query: every query kind from the command line, human-readable or --json, and `render` (PNG).
 #include <cstdio>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -12,6 +13,7 @@
 #include "densemap/cli/option_cli.h"
 #include "densemap/client/map_render.h"
 #include "densemap/client/query_client.h"
+#include "densemap/client/server_join.h"
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/densemapPubSubTypes.h"
@@ -132,7 +134,9 @@ int main(int argc, char** argv) {
   std::string layer_name = "occupancy", log_level = "warn";
   auto dds_table = msg::ddsOptions(dds);
   auto logging_table = cli::loggingOptions(log_level);
-  cli::addToApp(app, {&dds_table, &logging_table});
+  client::JoinOptions join_options;
+  auto join_table = client::joinOptions(join_options);
+  cli::addToApp(app, {&dds_table, &join_table, &logging_table});
   app.add_flag("--json", as_json, "print one JSON object instead of text");
   app.add_option("--timeout", timeout_s, "seconds to wait for the server and for each reply")
       ->capture_default_str();
@@ -184,17 +188,19 @@ int main(int argc, char** argv) {
   render->add_option("--pixel", pixel, "metres per pixel (default: the map resolution)");
   render->add_option("--min", area_min, "lower corner x,y of the area (default: the map's bounds)");
   render->add_option("--max", area_max, "upper corner x,y of the area");
-  if (const auto rc = cli::parse(app, argc, argv, {&dds_table, &logging_table})) return *rc;
+  if (const auto rc = cli::parse(app, argc, argv, {&dds_table, &join_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
 
   try {
     dds.name = "densemap-query";
-    msg::DdsNode node(dds);
+    // Made again, with its client, when a secure join stalls (client/server_join.h).
+    std::optional<msg::DdsNode> node;
+    node.emplace(dds);
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
     if (*progress) {
       // Published (transient local): the last message reaches a reader that joins later.
-      auto* topic = node.topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
-      auto* reader = node.reader(topic, msg::progressReaderQos(), nullptr);
+      auto* topic = node->topic(msg::kRobotProgressTopic, msg::typeSupport<msg::RobotProgressPubSubType>());
+      auto* reader = node->reader(topic, msg::progressReaderQos(), nullptr);
       msg::RobotProgress p;
       eprosima::fastdds::dds::SampleInfo info;
       const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -238,7 +244,7 @@ int main(int argc, char** argv) {
     }
     if (*server_stats) {
       // Statistics are published, not asked for: no request-reply, so it also works while queries queue.
-      client::StatisticsSubscriber sub(node);
+      client::StatisticsSubscriber sub(*node);
       const auto s = sub.waitForNext(timeout);
       if (!s) {
         throw std::runtime_error("no densemap-server statistics on DDS domain " + std::to_string(dds.domain) +
@@ -283,15 +289,32 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
-    const std::string client_id = client::clientIdOf(node, "query-" + std::to_string(::getpid()));
-    auto noServer = [&] {
+    const std::string client_id = client::clientIdOf(*node, "query-" + std::to_string(::getpid()));
+    auto noServer = [&](const std::string& state) {
       return std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
-                                (dds.loopback ? " (loopback)" : "") + "; start one or check --domain");
+                                (dds.loopback ? " (loopback)" : "") + "; start one or check --domain (" +
+                                state + ")");
+    };
+    // Waits for the server through `made` (a client in an optional, made on `node`), both made again when a
+    // secure join stalls (--rejoin-after).
+    const auto joinWith = [&](auto& made) {
+      made.emplace(*node, client_id);
+      const auto joined = client::joinServer(
+          [&]() -> auto& { return *made; },
+          [&] {
+            made.reset();
+            node.reset();
+            node.emplace(dds);
+            made.emplace(*node, client_id);
+          },
+          timeout, join_options.attempt(node->secure(), timeout));
+      if (!joined.joined) throw noServer(joined.state);
     };
     if (*save || *load || *clear || *reset) {
       // Commands go to the admin topic (a permissions file may grant queries but not these).
-      client::AdminClient ac(node, client_id);
-      if (!ac.waitForServer(timeout)) throw noServer();
+      std::optional<client::AdminClient> admin;
+      joinWith(admin);
+      client::AdminClient& ac = *admin;
       const msg::AdminRequest rq = *save    ? client::saveRequest(map_name)
                                    : *load  ? client::loadRequest(map_name)
                                    : *clear ? client::clearBoxRequest(parseXyz(box_min), parseXyz(box_max))
@@ -310,8 +333,9 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
-    client::QueryClient qc(node, client_id);
-    if (!qc.waitForServer(timeout)) throw noServer();
+    std::optional<client::QueryClient> query;
+    joinWith(query);
+    client::QueryClient& qc = *query;
     msg::QueryRequest rq;
     rq.layer(layer_name == "dense"   ? msg::LAYER_DENSE
              : layer_name == "fused" ? msg::LAYER_FUSED

@@ -81,7 +81,9 @@ int main(int argc, char** argv) {
   auto dds_table = msg::ddsOptions(dds);
   auto logging_table = cli::loggingOptions(log_level);
   auto source_table = cli::sourceOptions(source);
-  cli::addToApp(app, {&source_table, &dds_table, &logging_table});
+  client::JoinOptions join_options;
+  auto join_table = client::joinOptions(join_options);
+  cli::addToApp(app, {&source_table, &dds_table, &join_table, &logging_table});
   app.add_option(
          "--keep-every-nth-beam", beam_step,
          "send every n-th beam of each scan (4: a 16-beam LiDAR from a 64-beam one), with that geometry")
@@ -114,13 +116,6 @@ int main(int argc, char** argv) {
   app.add_option("--wait", wait_s,
                  "seconds to wait for the server (start) and for its acknowledgements (end)")
       ->capture_default_str();
-  double rejoin_s = 20.0;
-  app.add_option("--rejoin-after", rejoin_s,
-                 "secure mode: a robot participant the server has not matched within this many seconds is "
-                 "replaced by a new one, until --wait runs out (Fast DDS 2.9's secure discovery now and then "
-                 "never matches one participant; a new one authenticates afresh); 0: never")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
@@ -167,7 +162,8 @@ int main(int argc, char** argv) {
       "play as a ROS 2 robot: a bag's recorded messages unchanged (topics, types, QoS, timing; --speed, "
       "--rate 0 for no timing), any other source as PointCloud2 on --cloud-topic (default /cloud_in) "
       "+ /tf in --frame-id");
-  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &dds_table, &logging_table})) return *rc;
+  if (const auto rc = cli::parse(app, argc, argv, {&source_table, &dds_table, &join_table, &logging_table}))
+    return *rc;
   cli::setupLogging(log_level);
   if (ros2_mode && ros2::isBag(source.source)) {
     try {
@@ -287,11 +283,21 @@ int main(int argc, char** argv) {
     join();
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
     int rejoins = 0;
+    const auto attempt = join_options.attempt(node->secure(), wait);
+    std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
+    const auto add_query_client = [&] {
+      const auto c = std::to_string(query_clients_v.size());
+      query_clients_v.push_back(std::make_unique<client::QueryClient>(
+          *node, client::clientIdOf(*node, "replay-" + std::to_string(::getpid()) + "-q" + c, "q" + c)));
+    };
+    const auto no_query_server = [&](const std::string& state) {
+      return std::runtime_error("no densemap-server answers queries on DDS domain " +
+                                std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
+                                " s; start it first or check --domain (secure: an identity whose role may "
+                                "query, e.g. client-1) (" +
+                                state + ")");
+    };
     if (publisher) {
-      // Secure joins only: a plain participant has no handshake to stall.
-      const auto attempt = node->secure() && rejoin_s > 0
-                               ? std::chrono::milliseconds(static_cast<long>(rejoin_s * 1000))
-                               : wait;
       const auto joined =
           client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, join, wait, attempt);
       rejoins = joined.rejoins;
@@ -300,6 +306,19 @@ int main(int argc, char** argv) {
                                  std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
                                  " s; start it first or check --domain (" + joined.state + ")");
       }
+    } else if (query_clients > 0) {
+      // Queries only: the first query client joins for the participant (made again as a robot's would be).
+      add_query_client();
+      const auto joined =
+          client::joinServer([&]() -> client::QueryClient& { return *query_clients_v.front(); },
+                             [&] {
+                               query_clients_v.clear();
+                               join();
+                               add_query_client();
+                             },
+                             wait, attempt);
+      rejoins = joined.rejoins;
+      if (!joined.joined) throw no_query_server(joined.state);
     }
     const auto since_join = [&joined_from](std::chrono::steady_clock::time_point t) {
       return std::chrono::duration<double, std::milli>(t - joined_from).count();
@@ -326,17 +345,11 @@ int main(int argc, char** argv) {
     std::vector<double> query_ms;
     std::atomic<std::uint64_t> query_failures{0}, query_busy{0};
     std::vector<std::thread> query_threads;
-    std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
-    for (int c = 0; c < query_clients; ++c) {
-      query_clients_v.push_back(std::make_unique<client::QueryClient>(
-          *node, client::clientIdOf(*node, "replay-" + std::to_string(::getpid()) + "-q" + std::to_string(c),
-                                    "q" + std::to_string(c))));
-      if (!query_clients_v.back()->waitForServer(wait)) {
-        throw std::runtime_error("no densemap-server answers queries on DDS domain " +
-                                 std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
-                                 " s; start it first or check --domain (secure: an identity whose role may "
-                                 "query, e.g. client-1)");
-      }
+    // The rest join on a participant the server has matched already.
+    while (static_cast<int>(query_clients_v.size()) < query_clients) {
+      add_query_client();
+      if (!query_clients_v.back()->waitForServer(wait))
+        throw no_query_server(query_clients_v.back()->joinState());
     }
     if (!publisher) matched_ms = server_ready_ms = since_join(std::chrono::steady_clock::now());
     for (int c = 0; c < query_clients; ++c) {

@@ -6,18 +6,19 @@
 
 namespace densemap::client {
 
-ServerJoin joinServer(const std::function<ScanPublisher&()>& publisher, const std::function<void()>& rejoin,
-                      std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
+ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
+                          std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
   using Clock = std::chrono::steady_clock;
   const auto give_up = Clock::now() + timeout;
   ServerJoin out;
   for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now());
-    if (publisher().waitForServer(std::min(attempt, left))) {
+    const JoinTarget t = target();
+    if (t.wait_for_server(std::min(attempt, left))) {
       out.joined = true;
       return out;
     }
-    out.state = publisher().joinState();
+    out.state = t.state();
     if (Clock::now() >= give_up) return out;
     spdlog::warn(
         "the server has not matched this participant within {:.1f} s ({}): joining again with a new one",
@@ -25,6 +26,21 @@ ServerJoin joinServer(const std::function<ScanPublisher&()>& publisher, const st
     rejoin();
     ++out.rejoins;
   }
+}
+
+std::chrono::milliseconds JoinOptions::attempt(bool secure, std::chrono::milliseconds timeout) const {
+  if (!secure || rejoin_after_s <= 0) return timeout;
+  return std::chrono::milliseconds(static_cast<long>(rejoin_after_s * 1000));
+}
+
+cli::OptionTable joinOptions(JoinOptions& o) {
+  cli::OptionTable t("Joining the server");
+  t.add("rejoin-after", o.rejoin_after_s,
+        "secure mode: a participant the server has not matched within this many seconds is replaced by a new "
+        "one, until the wait for the server runs out (Fast DDS 2.9's secure discovery now and then never "
+        "matches one participant; a new one authenticates afresh); 0: never")
+      .range(0.0, 3600.0);
+  return t;
 }
 
 }  // namespace densemap::client

@@ -150,3 +150,29 @@ TEST(ServerJoin, NoServerEndsAtTheTimeoutWithTheMissingMatches) {
   EXPECT_NE(j.state.find("lonely-robot: scans read by 0 server reader(s)"), std::string::npos) << j.state;
   EXPECT_NE(j.state.find("no statistics from a server yet"), std::string::npos) << j.state;
 }
+
+// A query client joins the same way (densemap-query, densemap-replay --robots 0), and says what it misses.
+// Only a secure participant is ever replaced: a plain one has no handshake to stall.
+TEST(ServerJoin, AQueryClientWithoutAServerSaysWhatIsMissing) {
+  msg::DdsOptions dds;
+  dds.domain = 103;
+  dds.loopback = true;
+  msg::DdsNode node(dds);
+  client::QueryClient query(node, "lonely-client");
+  int rejoins = 0;
+  const auto j = client::joinServer([&]() -> client::QueryClient& { return query; }, [&] { ++rejoins; },
+                                    std::chrono::milliseconds(700), std::chrono::milliseconds(300));
+  EXPECT_FALSE(j.joined);
+  EXPECT_EQ(j.rejoins, rejoins);
+  EXPECT_GE(j.rejoins, 1);
+  EXPECT_NE(
+      j.state.find("lonely-client: requests read by 0 server reader(s), replies from 0 server writer(s)"),
+      std::string::npos)
+      << j.state;
+  client::JoinOptions o;
+  o.rejoin_after_s = 2;
+  EXPECT_EQ(o.attempt(true, std::chrono::seconds(10)), std::chrono::seconds(2));
+  EXPECT_EQ(o.attempt(false, std::chrono::seconds(10)), std::chrono::seconds(10));
+  o.rejoin_after_s = 0;
+  EXPECT_EQ(o.attempt(true, std::chrono::seconds(10)), std::chrono::seconds(10));
+}

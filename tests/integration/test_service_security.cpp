@@ -3,6 +3,7 @@
 // wrong-CA and tampered identities are refused; replies reach only the client that asked.
 #include <cstdlib>
 #include <fstream>
+#include <future>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -10,11 +11,13 @@
 #include <gtest/gtest.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <nlohmann/json.hpp>
 
 #include "densemap/client/server_join.h"
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
+#include "run_command.h"
 #include "security_keystore.h"
 #include "service_harness.h"
 
@@ -85,40 +88,46 @@ using StatsCounter = Counter<msg::ServerStatistics, msg::ServerStatisticsPubSubT
 using AckCounter = Counter<msg::ScanAck, msg::ScanAckPubSubType>;
 using ReplyCounter = Counter<msg::QueryReply, msg::QueryReplyPubSubType>;
 
-/// A robot joined as densemap-replay joins (client::joinServer): its participant is replaced when the server
-/// has not matched it within 15 s, meant to get past Fast DDS 2.9's rare stalled secure join (CI saw one
-/// where a valid robot joined beside a refused participant). Used for the robots that must get in.
-class JoiningRobot {
+/// A participant that joins as the programs join (client::joinServer): replaced when the server has not
+/// matched it within 15 s, to get past Fast DDS 2.9's rare stalled secure join (CI saw one for a robot
+/// beside a refused participant, and one for a query client). Used for every participant that must get in.
+/// The client (`Client(node, arg)`) is made by join(), so a test may first use node() for what must be
+/// refused; a rejoin replaces the node and everything made on it.
+template <class Client, class Arg>
+class Joining {
  public:
-  JoiningRobot(int domain, fs::path identity, std::vector<std::string> ids)
-      : domain_(domain), identity_(std::move(identity)), ids_(std::move(ids)) {
-    make();
+  Joining(int domain, fs::path identity, Arg arg)
+      : domain_(domain), identity_(std::move(identity)), arg_(std::move(arg)) {
+    node_.emplace(ddsAs(domain_, identity_));
   }
   /// Waits up to 45 s in all; `why()` says what was missing when it returns false.
   bool join() {
-    const auto j = client::joinServer([this]() -> client::ScanPublisher& { return *publisher_; },
-                                      [this] { make(); }, 45s, 15s);
+    if (!client_) client_.emplace(*node_, arg_);
+    const auto j = client::joinServer([this]() -> Client& { return *client_; }, [this] { make(); }, 45s, 15s);
     why_ = j.state + " after " + std::to_string(j.rejoins) + " new participant(s)";
     return j.joined;
   }
   const std::string& why() const { return why_; }
-  client::ScanPublisher& publisher() { return *publisher_; }
+  Client& client() { return *client_; }
   msg::DdsNode& node() { return *node_; }
 
  private:
   void make() {
-    publisher_.reset();
+    client_.reset();
     node_.reset();
     node_.emplace(ddsAs(domain_, identity_));
-    publisher_.emplace(*node_, ids_);
+    client_.emplace(*node_, arg_);
   }
   int domain_;
   fs::path identity_;
-  std::vector<std::string> ids_;
+  Arg arg_;
   std::optional<msg::DdsNode> node_;
-  std::optional<client::ScanPublisher> publisher_;
+  std::optional<Client> client_;
   std::string why_;
 };
+using JoiningRobot = Joining<client::ScanPublisher, std::vector<std::string>>;
+using JoiningQuery = Joining<client::QueryClient, std::string>;
+using JoiningAdmin = Joining<client::AdminClient, std::string>;
 
 msg::QueryReply statsOf(client::QueryClient& c) {
   msg::QueryRequest rq;
@@ -132,21 +141,21 @@ TEST(Security, EveryRoleDoesWhatItIsFor) {
   JoiningRobot robot1(201, keys / "robot-1", {"robot-1"});
   ASSERT_TRUE(robot1.join()) << "the robot was not authenticated and matched: " << robot1.why();
   EXPECT_EQ(robot1.node().identity().name, "robot-1");
-  client::ScanPublisher& robot = robot1.publisher();
+  client::ScanPublisher& robot = robot1.client();
   const auto sent = scans(3);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
   EXPECT_EQ(robot.waitForAcks({"robot-1"}, sent.size(), 60s).applied, sent.size());
 
-  msg::DdsNode client_node(ddsAs(201, keys / "client-1"));
-  client::QueryClient query(client_node, client::clientIdOf(client_node, "unused"));
-  EXPECT_EQ(query.id(), "client-1");
-  ASSERT_TRUE(query.waitForServer(30s));
+  JoiningQuery client1(201, keys / "client-1", "client-1");
+  EXPECT_EQ(client::clientIdOf(client1.node(), "unused"), "client-1");
+  ASSERT_TRUE(client1.join()) << client1.why();
+  client::QueryClient& query = client1.client();
   EXPECT_EQ(statsOf(query).stats().map_version(), sent.size());
 
-  msg::DdsNode operator_node(ddsAs(201, keys / "operator"));
-  client::AdminClient admin(operator_node, client::clientIdOf(operator_node, "unused"));
-  ASSERT_TRUE(admin.waitForServer(30s));
-  const auto reset = admin.call(client::resetRequest(), 30s);
+  JoiningAdmin operator1(201, keys / "operator", "operator");
+  EXPECT_EQ(client::clientIdOf(operator1.node(), "unused"), "operator");
+  ASSERT_TRUE(operator1.join()) << operator1.why();
+  const auto reset = operator1.client().call(client::resetRequest(), 30s);
   EXPECT_EQ(reset.status(), msg::STATUS_OK) << reset.message();
   EXPECT_EQ(statsOf(query).stats().known_cells(), 0u);
 }
@@ -155,11 +164,11 @@ TEST(Security, AParticipantWithoutAnIdentityGetsNothingInOrOut) {
   Keystore keys;
   TestServer server(secureServer(202, keys / "server"));
   JoiningRobot robot1(202, keys / "robot-1", {"robot-1"});
-  msg::DdsNode client_node(ddsAs(202, keys / "client-1"));
-  client::QueryClient query(client_node, "client-1");
+  JoiningQuery client1(202, keys / "client-1", "client-1");
   ASSERT_TRUE(robot1.join()) << robot1.why();
-  client::ScanPublisher& robot = robot1.publisher();
-  ASSERT_TRUE(query.waitForServer(30s));
+  client::ScanPublisher& robot = robot1.client();
+  ASSERT_TRUE(client1.join()) << client1.why();
+  client::QueryClient& query = client1.client();
 
   // The intruder: plain DDS on the same domain, listening to everything the legitimate ones exchange.
   msg::DdsNode plain(ddsAs(202, {}));
@@ -234,12 +243,15 @@ TEST(Security, ARobotCannotCommandOrQueryAndAClientCannotPublishScans) {
 TEST(Security, ARobotReadsOnlyItsOwnAcksAndSendsOnlyAsItself) {
   Keystore keys;
   TestServer server(secureServer(220, keys / "server"));
-  msg::DdsNode one(ddsAs(220, keys / "robot-1")), two(ddsAs(220, keys / "robot-2"));
   // A robot identity may send as itself and as robot ids under its name ("robot-1-<k>": a program
   // publishing for several robots) ...
-  client::ScanPublisher robot1(one, {"robot-1", "robot-1-7"}), robot2(two, {"robot-2"});
-  ASSERT_TRUE(robot1.waitForServer(30s)) << robot1.joinState();
-  ASSERT_TRUE(robot2.waitForServer(30s)) << robot2.joinState();
+  JoiningRobot joining1(220, keys / "robot-1", {"robot-1", "robot-1-7"});
+  JoiningRobot joining2(220, keys / "robot-2", {"robot-2"});
+  ASSERT_TRUE(joining1.join()) << joining1.why();
+  ASSERT_TRUE(joining2.join()) << joining2.why();
+  msg::DdsNode& one = joining1.node();
+  client::ScanPublisher& robot1 = joining1.client();
+  client::ScanPublisher& robot2 = joining2.client();
   // ... never as another robot, and it reads no other robot's acknowledgements, progress or scans.
   try {
     client::ScanPublisher as_two(one, {"robot-2"});
@@ -289,23 +301,26 @@ TEST(Security, RefusedRobotIdsLeaveTheProgramRunning) {
   ServerOptions o = secureServer(222, keys / "server");
   o.statistics_period_s = 0.005;
   TestServer server(o);
-  msg::DdsNode one(ddsAs(222, keys / "robot-1"));
+  // The refusals come on the participants that then join (a rejoin would replace them).
+  JoiningRobot joining_robot(222, keys / "robot-1", {"robot-1-3"});
+  msg::DdsNode& one = joining_robot.node();
   for (int i = 0; i < 300; ++i) {
     EXPECT_THROW(client::ScanPublisher(one, {"robot-2"}), msg::DdsError);
   }
   // The same for a client identity asking under another client's id, or for the admin service.
-  msg::DdsNode client(ddsAs(222, keys / "client-1"));
+  JoiningQuery joining_query(222, keys / "client-1", "client-1");
+  msg::DdsNode& client = joining_query.node();
   for (int i = 0; i < 100; ++i) {
     EXPECT_THROW(client::QueryClient(client, "client-2"), msg::DdsError);
     EXPECT_THROW(client::AdminClient(client, "client-1"), msg::DdsError);
   }
-  client::QueryClient query(client, "client-1");
-  ASSERT_TRUE(query.waitForServer(30s));
+  ASSERT_TRUE(joining_query.join()) << joining_query.why();
+  client::QueryClient& query = joining_query.client();
   // A list with one refused id leaves none of its topics behind: the allowed id's readers went with it
   // (their listeners died with the publisher), and a new publisher for that id gets its acknowledgements.
   EXPECT_THROW(client::ScanPublisher(one, {"robot-1-3", "robot-2"}), msg::DdsError);
-  client::ScanPublisher robot(one, {"robot-1-3"});
-  ASSERT_TRUE(robot.waitForServer(30s)) << robot.joinState();
+  ASSERT_TRUE(joining_robot.join()) << joining_robot.why();
+  client::ScanPublisher& robot = joining_robot.client();
   const auto sent = scans(2);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1-3", i, sent[i]));
   EXPECT_EQ(robot.waitForAcks({"robot-1-3"}, sent.size(), 60s).applied, sent.size());
@@ -316,10 +331,11 @@ TEST(Security, RefusedRobotIdsLeaveTheProgramRunning) {
 TEST(Security, RepliesReachOnlyTheClientThatAsked) {
   Keystore keys;
   TestServer server(secureServer(204, keys / "server"));
-  msg::DdsNode one(ddsAs(204, keys / "client-1")), two(ddsAs(204, keys / "client-2"));
-  client::QueryClient q1(one, "client-1"), q2(two, "client-2");
-  ASSERT_TRUE(q1.waitForServer(30s));
-  ASSERT_TRUE(q2.waitForServer(30s));
+  JoiningQuery client1(204, keys / "client-1", "client-1"), client2(204, keys / "client-2", "client-2");
+  ASSERT_TRUE(client1.join()) << client1.why();
+  ASSERT_TRUE(client2.join()) << client2.why();
+  msg::DdsNode& one = client1.node();
+  client::QueryClient &q1 = client1.client(), &q2 = client2.client();
   // client-1 listens on its own reply topic a second time while client-2 asks: none of it arrives.
   ReplyCounter mine(one, msg::peerTopicOf(msg::kQueryReplyTopic, "client-1"));
   for (int i = 0; i < 5; ++i) EXPECT_EQ(statsOf(q2).status(), msg::STATUS_OK);
@@ -492,7 +508,7 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
   // The re-issued robot maps as before ...
   JoiningRobot reissued(215, keys / "robot-1", {"robot-1"});
   ASSERT_TRUE(reissued.join()) << "a re-issued identity was not let in: " << reissued.why();
-  client::ScanPublisher& robot = reissued.publisher();
+  client::ScanPublisher& robot = reissued.client();
   const auto sent = scans(2);
   for (std::size_t i = 0; i < sent.size(); ++i) ASSERT_TRUE(robot.publish("robot-1", i, sent[i]));
   EXPECT_EQ(robot.waitForAcks({"robot-1"}, sent.size(), 60s).applied, sent.size());
@@ -509,6 +525,40 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
   // Fast DDS retried the handshake every second or so meanwhile: still one participant.
   EXPECT_EQ(counted, 1u) << "the refusal is not in the statistics message, or not counted once";
   EXPECT_EQ(server.service.statistics().totals().received, sent.size());
+}
+
+// The tools join as the participants above do: in secure mode one the server has not answered within
+// --rejoin-after is replaced by a new one. A server that comes up 5 s late leaves a participant unmatched
+// for whole attempts just as a stalled secure join does, so both tools must replace theirs and then get in:
+// densemap-query with a query, densemap-replay with query clients only (no robot to join for them).
+TEST(Security, ToolsReplaceAParticipantTheServerHasNotAnswered) {
+  Keystore keys;
+  const fs::path summary = keys.scratch("replay") / "summary.json";
+  const std::string dds = " --domain 224 --loopback --rejoin-after 1.5 --security-dir ";
+  auto query = std::async(std::launch::async, [&] {
+    return runCommand(std::string(DENSEMAP_QUERY_BINARY) + dds + (keys / "client-1").string() +
+                          " --log-level info --timeout 40 --json stats",
+                      Stderr::kCapture);
+  });
+  auto replay = std::async(std::launch::async, [&] {
+    return runCommand(std::string(DENSEMAP_REPLAY_BINARY) + dds + (keys / "client-2").string() +
+                          " --robots 0 --query-clients 1 --duration 1 --wait 40 --summary-json " +
+                          summary.string(),
+                      Stderr::kCapture);
+  });
+  std::this_thread::sleep_for(5s);
+  TestServer server(secureServer(224, keys / "server"));
+  const CommandResult q = query.get(), r = replay.get();
+  EXPECT_EQ(q.exitCode(), 0) << q.output;
+  EXPECT_NE(q.output.find("joining again with a new one"), std::string::npos) << q.output;
+  EXPECT_NE(q.output.find("\"map_version\":0"), std::string::npos) << q.output;
+  EXPECT_EQ(r.exitCode(), 0) << r.output;
+  std::ifstream f(summary);
+  ASSERT_TRUE(f) << "densemap-replay wrote no summary: " << r.output;
+  const auto s = nlohmann::json::parse(f);
+  EXPECT_GE(s.at("rejoins").get<int>(), 1) << r.output;
+  EXPECT_GT(s.at("queries").get<std::uint64_t>(), 0u) << r.output;
+  EXPECT_EQ(s.at("query_failures").get<std::uint64_t>(), 0u) << r.output;
 }
 
 TEST(Security, AFolderThatIsNotAnIdentityIsAClearError) {

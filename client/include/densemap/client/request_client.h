@@ -14,6 +14,8 @@
 #include <string>
 #include <thread>
 
+#include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
+#include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
@@ -79,6 +81,23 @@ class RequestClient {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     return false;
+  }
+
+  /// What waitForServer is still waiting for (for the message when it times out).
+  std::string joinState() {
+    eprosima::fastdds::dds::PublicationMatchedStatus pub;
+    eprosima::fastdds::dds::SubscriptionMatchedStatus sub;
+    writer_->get_publication_matched_status(pub);
+    reader_->get_subscription_matched_status(sub);
+    std::string out = id_ + ": requests read by " + std::to_string(pub.current_count) +
+                      " server reader(s), replies from " + std::to_string(sub.current_count) +
+                      " server writer(s)";
+    if (node_.secure()) {
+      out +=
+          " (secure: a server that did not authenticate this identity matches nothing; its log names each "
+          "refused participant)";
+    }
+    return out;
   }
 
   /// Sends the request (client_id and request_id are filled in) and returns the reply. Throws QueryTimeout.

@@ -1,26 +1,57 @@
-// Joining a server with a robot participant, made again when a secure join stalls: Fast DDS 2.9's secure
+// Joining a server with a participant that is made again when a secure join stalls: Fast DDS 2.9's secure
 // discovery now and then never matches one participant with the server (no more than that participant:
-// the server goes on matching others), and a new participant, with a new GUID, authenticates afresh.
+// the server goes on matching others), and a new participant, with a new GUID, authenticates afresh. CI saw
+// it for a robot and, once, for a query client; so every program that joins a server (robots, query and
+// admin clients) joins through here.
 #pragma once
 
 #include <chrono>
 #include <functional>
 #include <string>
 
-#include "densemap/client/scan_publisher.h"
+#include "densemap/cli/option_table.h"
 
 namespace densemap::client {
 
 struct ServerJoin {
   bool joined = false;
   int rejoins = 0;    ///< participants replaced before the one that joined (or the last one)
-  std::string state;  ///< ScanPublisher::joinState() of the last participant when not joined
+  std::string state;  ///< joinState() of the last participant's client when not joined
 };
 
-/// Waits until the server matches `publisher()` (ScanPublisher::waitForServer), at most `timeout` in all.
-/// Each time `attempt` passes unmatched, `rejoin()` replaces the participant and its publisher (both made
-/// anew by the caller) and the wait goes on with the new one. `attempt` >= `timeout`: never replaced.
-ServerJoin joinServer(const std::function<ScanPublisher&()>& publisher, const std::function<void()>& rejoin,
-                      std::chrono::milliseconds timeout, std::chrono::milliseconds attempt);
+/// What joinServer waits on, for one participant: its client's waitForServer and joinState.
+struct JoinTarget {
+  std::function<bool(std::chrono::milliseconds)> wait_for_server;
+  std::function<std::string()> state;
+};
+
+/// Waits until the server answers `target()` (its wait_for_server), at most `timeout` in all. Each time
+/// `attempt` passes unmatched, `rejoin()` replaces the participant and its client (both made anew by the
+/// caller) and the wait goes on with the new one. `attempt` >= `timeout`: never replaced.
+ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
+                          std::chrono::milliseconds timeout, std::chrono::milliseconds attempt);
+
+/// The same for `client()` returning a ScanPublisher, QueryClient or AdminClient (anything with
+/// waitForServer(milliseconds) and joinState()); called again after each rejoin.
+template <class GetClient>
+ServerJoin joinServer(GetClient&& client, const std::function<void()>& rejoin,
+                      std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
+  return joinServerWith(
+      [&client] {
+        auto& c = client();
+        return JoinTarget{[&c](std::chrono::milliseconds t) { return c.waitForServer(t); },
+                          [&c] { return c.joinState(); }};
+      },
+      rejoin, timeout, attempt);
+}
+
+/// `--rejoin-after`, shared by the programs that join a server.
+struct JoinOptions {
+  double rejoin_after_s = 20.0;
+  /// The attempt for joinServer: rejoin_after_s in secure mode, else `timeout` (a plain participant has no
+  /// handshake to stall, so it is never replaced).
+  std::chrono::milliseconds attempt(bool secure, std::chrono::milliseconds timeout) const;
+};
+cli::OptionTable joinOptions(JoinOptions& options);
 
 }  // namespace densemap::client
