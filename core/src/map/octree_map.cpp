@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <iterator>
 #include <vector>
 
 #include <omp.h>
@@ -36,6 +37,20 @@ float scaled(std::uint32_t n, float l) { return n == 1 ? l : static_cast<float>(
 }  // namespace
 
 using Entry = OctreeMap::Entry;
+
+namespace {
+
+/// Writes a block's cells with evidence, with their counts, to `out`. Voxel indices are Morton ranks within
+/// the block, so index order is OctoMap's child order.
+template <class Out>
+void listCells(const ScanEvidence& evidence, const EvidenceBlock& block, Out out) {
+  block.forEachEvidenceVoxel([&](int v) {
+    const auto [nf, nh] = evidence.counts(block, v);
+    *out++ = Entry{block.voxelKey(v), nf, nh};
+  });
+}
+
+}  // namespace
 
 /// Applies a Morton-sorted batch of cell updates in one depth-first pass. Mirrors
 /// OccupancyOcTreeBase::updateNode/updateNodeRecurs (lazy_eval = false) for each cell: early abort on a
@@ -123,14 +138,9 @@ class BatchTreeUpdater {
       const auto thread = static_cast<std::size_t>(omp_get_thread_num());
       Task& t = tasks_[i];
       if (t.block != nullptr) {
-        // Voxel indices are Morton ranks within the block, so index order is OctoMap's child order.
         std::vector<Entry>& list = (*scratch)[thread];
         list.clear();
-        const EvidenceBlock* b = t.block;
-        b->forEachEvidenceVoxel([&](int v) {
-          const auto [nf, nh] = evidence_->counts(*b, v);
-          list.push_back({b->voxelKey(v), nf, nh});
-        });
+        listCells(*evidence_, *t.block, std::back_inserter(list));
         t.begin = list.data();
         t.end = list.data() + list.size();
       } else if (listed != nullptr) {
@@ -157,13 +167,8 @@ class BatchTreeUpdater {
     }
     if (!just_created && !tree_.nodeHasChildren(node)) {
       Task t{.node = node, .just_created = false, .depth = depth, .first = listed.size()};
-      for (const BlockRef* it = b; it != e; ++it) {
-        const EvidenceBlock& block = *it->second;
-        block.forEachEvidenceVoxel([&](int v) {
-          const auto [nf, nh] = evidence_->counts(block, v);
-          listed.push_back({block.voxelKey(v), nf, nh});
-        });
-      }
+      for (const BlockRef* it = b; it != e; ++it)
+        listCells(*evidence_, *it->second, std::back_inserter(listed));
       t.last = listed.size();
       tasks_.push_back(t);
       return;
@@ -311,13 +316,7 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
   entries.resize(offset.back());
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::size_t i = 0; i < blocks.size(); ++i) {
-    const EvidenceBlock* b = blocks[i].second;
-    std::size_t at = offset[i];
-    // Voxel indices are Morton ranks within the block, so index order is OctoMap's child order.
-    b->forEachEvidenceVoxel([&](int v) {
-      const auto [nf, nh] = evidence.counts(*b, v);
-      entries[at++] = {b->voxelKey(v), nf, nh};
-    });
+    listCells(evidence, *blocks[i].second, entries.begin() + static_cast<std::ptrdiff_t>(offset[i]));
   }
   if (evidence.overflowCount() > 0) {
     evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
