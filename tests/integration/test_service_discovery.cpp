@@ -93,14 +93,20 @@ TEST(DdsOptions, UnicastPeersAloneDiscoverTheServer) {
   EXPECT_GT(r.stats().known_cells(), 0u);
 }
 
+/// DDS on this host only, on `domain`.
+static msg::DdsOptions loopbackOn(int domain) {
+  msg::DdsOptions dds;
+  dds.domain = domain;
+  dds.loopback = true;
+  return dds;
+}
+
 // client::joinServer (densemap-replay --rejoin-after): a participant not matched within an attempt is
 // replaced by a new one, and the wait goes on with it until the server comes. Here no server is up for the
 // first attempts, so the participant is replaced; the last one joins and its scans are mapped.
 TEST(ServerJoin, AParticipantNotMatchedIsReplacedAndTheNewOneJoins) {
   const int domain = 101;
-  msg::DdsOptions dds;
-  dds.domain = domain;
-  dds.loopback = true;
+  const msg::DdsOptions dds = loopbackOn(domain);
   std::optional<msg::DdsNode> node;
   std::optional<client::ScanPublisher> publisher;
   int made = 0;
@@ -134,10 +140,7 @@ TEST(ServerJoin, AParticipantNotMatchedIsReplacedAndTheNewOneJoins) {
 
 // Without a server at all the wait ends at its timeout, not matched, saying what is missing.
 TEST(ServerJoin, NoServerEndsAtTheTimeoutWithTheMissingMatches) {
-  msg::DdsOptions dds;
-  dds.domain = 102;
-  dds.loopback = true;
-  msg::DdsNode node(dds);
+  msg::DdsNode node(loopbackOn(102));
   client::ScanPublisher publisher(node, {"lonely-robot"});
   int rejoins = 0;
   const auto j = client::joinServer([&]() -> client::ScanPublisher& { return publisher; }, [&] { ++rejoins; },
@@ -154,10 +157,7 @@ TEST(ServerJoin, NoServerEndsAtTheTimeoutWithTheMissingMatches) {
 // A query client joins the same way (densemap-query, densemap-replay --robots 0), and says what it misses.
 // Only a secure participant is ever replaced: a plain one has no handshake to stall.
 TEST(ServerJoin, AQueryClientWithoutAServerSaysWhatIsMissing) {
-  msg::DdsOptions dds;
-  dds.domain = 103;
-  dds.loopback = true;
-  msg::DdsNode node(dds);
+  msg::DdsNode node(loopbackOn(103));
   client::QueryClient query(node, "lonely-client");
   int rejoins = 0;
   const auto j = client::joinServer([&]() -> client::QueryClient& { return query; }, [&] { ++rejoins; },
