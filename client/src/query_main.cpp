@@ -1,6 +1,6 @@
 // densemap-query: every query kind from the command line, human-readable or --json, and `render` (PNG).
 #include <cstdio>
-#include <optional>
+#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -11,6 +11,7 @@
 #include "densemap/cli/cli_common.h"
 #include "densemap/cli/common_options.h"
 #include "densemap/cli/option_cli.h"
+#include "densemap/client/joining_client.h"
 #include "densemap/client/map_render.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/server_join.h"
@@ -193,9 +194,9 @@ int main(int argc, char** argv) {
 
   try {
     dds.name = "densemap-query";
-    // Made again, with its client, when a secure join stalls (client/server_join.h).
-    std::optional<msg::DdsNode> node;
-    node.emplace(dds);
+    // Handed to the query or admin client, which makes it again when a secure join stalls
+    // (client/joining_client.h).
+    auto node = std::make_unique<msg::DdsNode>(dds);
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
     if (*progress) {
       // Published (transient local): the last message reaches a reader that joins later.
@@ -295,26 +296,16 @@ int main(int argc, char** argv) {
                                 (dds.loopback ? " (loopback)" : "") + "; start one or check --domain (" +
                                 state + ")");
     };
-    // Waits for the server through `made` (a client in an optional, made on `node`), both made again when a
-    // secure join stalls (--rejoin-after).
-    const auto joinWith = [&](auto& made) {
-      made.emplace(*node, client_id);
-      const auto joined = client::joinServer(
-          [&]() -> auto& { return *made; },
-          [&] {
-            made.reset();
-            node.reset();
-            node.emplace(dds);
-            made.emplace(*node, client_id);
-          },
-          timeout, join_options.attempt(node->secure(), timeout));
-      if (!joined.joined) throw noServer(joined.state);
+    // Waits for the server through a client that owns the participant from here on.
+    const auto joined = [&](auto& c) -> auto& {
+      const auto j = c.join(timeout, join_options.attempt(c.node().secure(), timeout));
+      if (!j.joined) throw noServer(j.state);
+      return c.client();
     };
     if (*save || *load || *clear || *reset) {
       // Commands go to the admin topic (a permissions file may grant queries but not these).
-      std::optional<client::AdminClient> admin;
-      joinWith(admin);
-      client::AdminClient& ac = *admin;
+      client::JoiningClient<client::AdminClient, std::string> admin(dds, client_id, std::move(node));
+      client::AdminClient& ac = joined(admin);
       const msg::AdminRequest rq = *save    ? client::saveRequest(map_name)
                                    : *load  ? client::loadRequest(map_name)
                                    : *clear ? client::clearBoxRequest(parseXyz(box_min), parseXyz(box_max))
@@ -333,9 +324,8 @@ int main(int argc, char** argv) {
       }
       return 0;
     }
-    std::optional<client::QueryClient> query;
-    joinWith(query);
-    client::QueryClient& qc = *query;
+    client::JoiningClient<client::QueryClient, std::string> query(dds, client_id, std::move(node));
+    client::QueryClient& qc = joined(query);
     msg::QueryRequest rq;
     rq.layer(layer_name == "dense"   ? msg::LAYER_DENSE
              : layer_name == "fused" ? msg::LAYER_FUSED

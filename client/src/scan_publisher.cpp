@@ -7,6 +7,7 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "densemap/client/server_join.h"
 #include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
 
@@ -199,9 +200,7 @@ std::string ScanPublisher::joinState() {
   }
   out += lastStatistics() ? "; statistics from a server seen" : "; no statistics from a server yet";
   if (node_.secure()) {
-    out +=
-        " (secure: a server that did not authenticate this identity matches nothing; its log names each "
-        "refused participant)";
+    out += kUnauthenticatedHint;
   }
   return out;
 }

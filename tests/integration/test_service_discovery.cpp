@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "densemap/cli/option_cli.h"
+#include "densemap/client/joining_client.h"
 #include "densemap/client/query_client.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/client/server_join.h"
@@ -101,41 +102,30 @@ static msg::DdsOptions loopbackOn(int domain) {
   return dds;
 }
 
-// client::joinServer (densemap-replay --rejoin-after): a participant not matched within an attempt is
-// replaced by a new one, and the wait goes on with it until the server comes. Here no server is up for the
-// first attempts, so the participant is replaced; the last one joins and its scans are mapped.
+// client::JoiningClient (densemap-query; densemap-replay's --rejoin-after does the same for its robots): a
+// participant not matched within an attempt is replaced by a new one, and the wait goes on with it until
+// the server comes. Here no server is up for the first attempts, so the participant is replaced; the last
+// one joins and its scans are mapped.
 TEST(ServerJoin, AParticipantNotMatchedIsReplacedAndTheNewOneJoins) {
   const int domain = 101;
-  const msg::DdsOptions dds = loopbackOn(domain);
-  std::optional<msg::DdsNode> node;
-  std::optional<client::ScanPublisher> publisher;
-  int made = 0;
-  const auto make = [&] {
-    publisher.reset();
-    node.reset();
-    node.emplace(dds);
-    publisher.emplace(*node, std::vector<std::string>{"rejoining-robot"});
-    ++made;
-  };
-  make();
-  std::optional<test::TestServer> srv;
+  std::optional<test::TestServer> srv;  // outlives the robot
+  client::JoiningClient<client::ScanPublisher, std::vector<std::string>> robot(
+      loopbackOn(domain), std::vector<std::string>{"rejoining-robot"});
   std::thread late([&] {
     std::this_thread::sleep_for(std::chrono::seconds(5));
     srv.emplace(test::serverOptions(domain));
   });
-  const auto j = client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, make,
-                                    std::chrono::seconds(30), std::chrono::milliseconds(1500));
+  const auto j = robot.join(std::chrono::seconds(30), std::chrono::milliseconds(1500));
   late.join();
   ASSERT_TRUE(j.joined) << j.state;
   EXPECT_GE(j.rejoins, 2) << "the participant was not replaced while no server was up";
-  EXPECT_EQ(made, j.rejoins + 1);
+  EXPECT_EQ(robot.participants(), j.rejoins + 1);
   io::LidarSimulator sim(test::smallSimulator(2, 16, 256));
+  client::ScanPublisher& publisher = robot.client();
   for (std::size_t i = 0; i < sim.size(); ++i)
-    ASSERT_TRUE(publisher->publish("rejoining-robot", i, sim.read(i)));
-  EXPECT_EQ(publisher->waitForAcks({"rejoining-robot"}, sim.size(), std::chrono::seconds(30)).applied,
+    ASSERT_TRUE(publisher.publish("rejoining-robot", i, sim.read(i)));
+  EXPECT_EQ(publisher.waitForAcks({"rejoining-robot"}, sim.size(), std::chrono::seconds(30)).applied,
             sim.size());
-  publisher.reset();
-  node.reset();
 }
 
 // Without a server at all the wait ends at its timeout, not matched, saying what is missing.

@@ -13,7 +13,7 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <nlohmann/json.hpp>
 
-#include "densemap/client/server_join.h"
+#include "densemap/client/joining_client.h"
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
@@ -88,41 +88,23 @@ using StatsCounter = Counter<msg::ServerStatistics, msg::ServerStatisticsPubSubT
 using AckCounter = Counter<msg::ScanAck, msg::ScanAckPubSubType>;
 using ReplyCounter = Counter<msg::QueryReply, msg::QueryReplyPubSubType>;
 
-/// A participant that joins as the programs join (client::joinServer): replaced when the server has not
-/// matched it within 15 s, to get past Fast DDS 2.9's rare stalled secure join (CI saw one for a robot
-/// beside a refused participant, and one for a query client). Used for every participant that must get in.
-/// The client (`Client(node, arg)`) is made by join(), so a test may first use node() for what must be
-/// refused; a rejoin replaces the node and everything made on it.
+/// A participant that must get in joins as densemap-query does (client::JoiningClient): replaced when the
+/// server has not matched it within 15 s, 45 s in all, to get past Fast DDS 2.9's rare stalled secure
+/// join (CI saw one for a robot beside a refused participant, and one for a query client).
 template <class Client, class Arg>
-class Joining {
+class Joining : public client::JoiningClient<Client, Arg> {
  public:
-  Joining(int domain, fs::path identity, Arg arg)
-      : domain_(domain), identity_(std::move(identity)), arg_(std::move(arg)) {
-    node_.emplace(ddsAs(domain_, identity_));
-  }
-  /// Waits up to 45 s in all; `why()` says what was missing when it returns false.
+  Joining(int domain, const fs::path& identity, Arg arg)
+      : client::JoiningClient<Client, Arg>(ddsAs(domain, identity), std::move(arg)) {}
   bool join() {
-    if (!client_) client_.emplace(*node_, arg_);
-    const auto j = client::joinServer([this]() -> Client& { return *client_; }, [this] { make(); }, 45s, 15s);
+    const auto j = client::JoiningClient<Client, Arg>::join(45s, 15s);
     why_ = j.state + " after " + std::to_string(j.rejoins) + " new participant(s)";
     return j.joined;
   }
+  /// What was missing when join() returned false.
   const std::string& why() const { return why_; }
-  Client& client() { return *client_; }
-  msg::DdsNode& node() { return *node_; }
 
  private:
-  void make() {
-    client_.reset();
-    node_.reset();
-    node_.emplace(ddsAs(domain_, identity_));
-    client_.emplace(*node_, arg_);
-  }
-  int domain_;
-  fs::path identity_;
-  Arg arg_;
-  std::optional<msg::DdsNode> node_;
-  std::optional<Client> client_;
   std::string why_;
 };
 using JoiningRobot = Joining<client::ScanPublisher, std::vector<std::string>>;

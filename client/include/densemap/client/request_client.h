@@ -19,6 +19,7 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "densemap/client/server_join.h"
 #include "densemap/msg/dds_node.h"
 #include "densemap/msg/peer_topic.h"
 
@@ -93,9 +94,7 @@ class RequestClient {
                       " server reader(s), replies from " + std::to_string(sub.current_count) +
                       " server writer(s)";
     if (node_.secure()) {
-      out +=
-          " (secure: a server that did not authenticate this identity matches nothing; its log names each "
-          "refused participant)";
+      out += kUnauthenticatedHint;
     }
     return out;
   }

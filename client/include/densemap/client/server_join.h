@@ -13,6 +13,11 @@
 
 namespace densemap::client {
 
+/// Appended to a secure client's joinState(): why a secure participant may see no server at all.
+inline constexpr const char* kUnauthenticatedHint =
+    " (secure: a server that did not authenticate this identity matches nothing; its log names each "
+    "refused participant)";
+
 struct ServerJoin {
   bool joined = false;
   int rejoins = 0;    ///< participants replaced before the one that joined (or the last one)
