@@ -4,6 +4,7 @@
 #include <sstream>
 #include <thread>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -139,7 +140,9 @@ int main(int argc, char** argv) {
   auto join_table = client::joinOptions(join_options);
   cli::addToApp(app, {&dds_table, &join_table, &logging_table});
   app.add_flag("--json", as_json, "print one JSON object instead of text");
-  app.add_option("--timeout", timeout_s, "seconds to wait for the server and for each reply")
+  app.add_option(
+         "--timeout", timeout_s,
+         "seconds to wait for the server (secure mode: at least --secure-join-wait) and for each reply")
       ->capture_default_str();
   app.add_option("--layer", layer_name, "occupancy (exact log-odds map), dense or fused")
       ->capture_default_str()
@@ -291,15 +294,18 @@ int main(int argc, char** argv) {
       return 0;
     }
     const std::string client_id = client::clientIdOf(*node, "query-" + std::to_string(::getpid()));
-    auto noServer = [&](const std::string& state) {
+    auto noServer = [&](std::chrono::milliseconds waited, const std::string& state) {
       return std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
-                                (dds.loopback ? " (loopback)" : "") + "; start one or check --domain (" +
-                                state + ")");
+                                (dds.loopback ? " (loopback)" : "") + " within " +
+                                fmt::format("{:g}", std::chrono::duration<double>(waited).count()) +
+                                " s; start one or check --domain (" + state + ")");
     };
     // Waits for the server through a client that owns the participant from here on.
     const auto joined = [&](auto& c) -> auto& {
-      const auto j = c.join(timeout, join_options.attempt(c.node().secure(), timeout));
-      if (!j.joined) throw noServer(j.state);
+      const bool secure = c.node().secure();
+      const auto wait = join_options.wait(secure, timeout);
+      const auto j = c.join(wait, join_options.attempt(secure, wait));
+      if (!j.joined) throw noServer(wait, j.state);
       return c.client();
     };
     if (*save || *load || *clear || *reset) {

@@ -283,7 +283,10 @@ int main(int argc, char** argv) {
     join();
     const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
     int rejoins = 0;
-    const auto attempt = join_options.attempt(node->secure(), wait);
+    // Secure mode waits at least --secure-join-wait for the server to match this program.
+    const auto join_wait = join_options.wait(node->secure(), wait);
+    const auto attempt = join_options.attempt(node->secure(), join_wait);
+    const std::string join_wait_text = fmt::format("{:g}", std::chrono::duration<double>(join_wait).count());
     std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
     const auto add_query_client = [&] {
       const auto c = std::to_string(query_clients_v.size());
@@ -292,18 +295,18 @@ int main(int argc, char** argv) {
     };
     const auto no_query_server = [&](const std::string& state) {
       return std::runtime_error("no densemap-server answers queries on DDS domain " +
-                                std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
+                                std::to_string(dds.domain) + " within " + join_wait_text +
                                 " s; start it first or check --domain (secure: an identity whose role may "
                                 "query, e.g. client-1) (" +
                                 state + ")");
     };
     if (publisher) {
-      const auto joined =
-          client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, join, wait, attempt);
+      const auto joined = client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, join,
+                                             join_wait, attempt);
       rejoins = joined.rejoins;
       if (!joined.joined) {
         throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
-                                 std::to_string(dds.domain) + " within " + fmt::format("{:g}", wait_s) +
+                                 std::to_string(dds.domain) + " within " + join_wait_text +
                                  " s; start it first or check --domain (" + joined.state + ")");
       }
     } else if (query_clients > 0) {
@@ -316,7 +319,7 @@ int main(int argc, char** argv) {
                                join();
                                add_query_client();
                              },
-                             wait, attempt);
+                             join_wait, attempt);
       rejoins = joined.rejoins;
       if (!joined.joined) throw no_query_server(joined.state);
     }

@@ -513,13 +513,15 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
 // --rejoin-after is replaced by a new one. A server that comes up 5 s late leaves a participant unmatched
 // for whole attempts just as a stalled secure join does, so both tools must replace theirs and then get in:
 // densemap-query with a query, densemap-replay with query clients only (no robot to join for them).
+// densemap-query's --timeout (3 s, for each reply) is shorter than the server's delay: in secure mode the
+// wait for the server is --secure-join-wait.
 TEST(Security, ToolsReplaceAParticipantTheServerHasNotAnswered) {
   Keystore keys;
   const fs::path summary = keys.scratch("replay") / "summary.json";
   const std::string dds = " --domain 224 --loopback --rejoin-after 1.5 --security-dir ";
   auto query = std::async(std::launch::async, [&] {
     return runCommand(std::string(DENSEMAP_QUERY_BINARY) + dds + (keys / "client-1").string() +
-                          " --log-level info --timeout 40 --json stats",
+                          " --log-level info --timeout 3 --secure-join-wait 40 --json stats",
                       Stderr::kCapture);
   });
   auto replay = std::async(std::launch::async, [&] {

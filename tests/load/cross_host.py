@@ -205,7 +205,8 @@ def check_intruders(a, run, report, failures):
     """Secure mode: from host q, a participant without an identity and a robot of another CA get nothing."""
     plain = run.query("statistics", security=[], timeout_s=6)
     foreign = run.robot("q", "foreign", 1, wait_s=8, extra=[],
-                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-q")])
+                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-q"),
+                                  "--secure-join-wait", "8"])
     try:
         foreign.wait(timeout=60)
     except subprocess.TimeoutExpired:

@@ -50,9 +50,14 @@ ServerJoin joinServer(GetClient&& client, const std::function<void()>& rejoin,
       rejoin, timeout, attempt);
 }
 
-/// `--rejoin-after`, shared by the programs that join a server.
+/// `--rejoin-after` and `--secure-join-wait`, shared by the programs that join a server.
 struct JoinOptions {
   double rejoin_after_s = 20.0;
+  double secure_join_wait_s = 60.0;
+  /// The timeout for joinServer: in secure mode the longer of `program_wait` (the program's own wait for
+  /// the server) and secure_join_wait_s, so that a stalled join has room for new participants; else
+  /// `program_wait`.
+  std::chrono::milliseconds wait(bool secure, std::chrono::milliseconds program_wait) const;
   /// The attempt for joinServer: rejoin_after_s in secure mode, else `timeout` (a plain participant has no
   /// handshake to stall, so it is never replaced).
   std::chrono::milliseconds attempt(bool secure, std::chrono::milliseconds timeout) const;
