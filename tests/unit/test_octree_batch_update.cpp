@@ -52,7 +52,7 @@ class OctreeBatchUpdate : public ::testing::TestWithParam<int> {
   /// Prefills both trees alike.
   template <class F>
   void prefill(F&& f) {
-    f(map_.tree());
+    f(map_.mutableTree());
     f(reference_);
   }
 
@@ -167,6 +167,47 @@ TEST_P(OctreeBatchUpdate, AFreshTreeAndCellsOutsideTheEvidenceBoxMatchOctomap) {
     }
     applyAndCompare(ev, "scattered cells, round " + std::to_string(round), margins[round]);
   }
+}
+
+// Cells this map has itself brought to the lower clamp are left out of later free-only updates (OctoMap's
+// early abort) without reading the tree, and whole blocks with nothing else are skipped. A cell raised by a
+// hit must be updated by the next miss again, also where a pruned leaf changes as a whole.
+TEST_P(OctreeBatchUpdate, CellsThisMapClampedAreLeftOutUntilAHitRaisesThem) {
+  std::uniform_int_distribution<unsigned> x_range(0, 63), yz_range(0, 39);
+  std::vector<Key> cells;
+  for (int i = 0; i < 4000; ++i)
+    cells.push_back({kC + x_range(rng_), kC + yz_range(rng_), kC + yz_range(rng_)});
+  // A whole aligned 16^3 block, freed alike: one pruned leaf, updated in place.
+  std::vector<Key> cube;
+  for (unsigned x = 0; x < 16; ++x)
+    for (unsigned y = 0; y < 16; ++y)
+      for (unsigned z = 0; z < 16; ++z) cube.push_back({kC + 128 + x, kC + y, kC + z});
+  auto round = [&](const std::string& what, auto&& hit_cell, auto&& hit_cube) {
+    Evidence ev;
+    for (const Key& k : cells) (hit_cell(k) ? ev.hit : ev.free).insert(k);
+    for (const Key& k : cube) (hit_cube(k) ? ev.hit : ev.free).insert(k);
+    applyAndCompare(ev, what);
+  };
+  const auto none = [](const Key&) { return false; };
+  // Six rounds of misses: OctoMap's defaults clamp a cell after five.
+  for (int r = 0; r < 6; ++r) round("misses, round " + std::to_string(r), none, none);
+  const std::size_t known = map_.cellsKnownAtMin();
+  EXPECT_GE(known, 4096u) << "the clamped cells should be known";
+  // Hits on every third cell and on the whole cube (alike: the leaf stays one), then misses everywhere:
+  // the raised cells must take the misses.
+  const auto every_third = [](const Key& k) { return (k[0] + k[1] + k[2]) % 3 == 0; };
+  const auto all = [](const Key&) { return true; };
+  round("hits on a third of the cells and on the cube", every_third, all);
+  EXPECT_LT(map_.cellsKnownAtMin(), known);
+  round("misses after the hits", none, none);
+  round("misses again", none, none);
+  // A hit on one cell of the cube: the leaf expands, then misses.
+  round("one hit in the cube", none, [&](const Key& k) { return k == cube[1234]; });
+  round("misses after it", none, none);
+  // Loading a tree (mutableTree) forgets what was known.
+  map_.mutableTree();
+  EXPECT_EQ(map_.cellsKnownAtMin(), 0u);
+  round("misses after the tree was handed out", none, none);
 }
 
 INSTANTIATE_TEST_SUITE_P(Threads, OctreeBatchUpdate, ::testing::Values(1, 2, 3),

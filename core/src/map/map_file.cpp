@@ -110,7 +110,7 @@ std::unique_ptr<OccupancyMap> decodeMap(std::string_view bytes, const MapOptions
         header.resolution, options.resolution, header.resolution));
   auto map = makeMap(options);
   if (auto* octree = dynamic_cast<OctreeMap*>(map.get())) {
-    octomap::OcTree& tree = octree->tree();
+    octomap::OcTree& tree = octree->mutableTree();
     tree.clear();
     if (header.nodes > 0) {
       ViewBuffer buffer(bytes.substr(header.data_offset));

@@ -41,13 +41,35 @@ using Entry = OctreeMap::Entry;
 namespace {
 
 /// Writes a block's cells with evidence, with their counts, to `out`. Voxel indices are Morton ranks within
-/// the block, so index order is OctoMap's child order.
+/// the block, so index order is OctoMap's child order. `at_min` (optional): leaves out the free-only cells
+/// it marks, whose update is one of OctoMap's early aborts.
 template <class Out>
-void listCells(const ScanEvidence& evidence, const EvidenceBlock& block, Out out) {
+void listCells(const ScanEvidence& evidence, const EvidenceBlock& block, Out out,
+               const BitPlane* at_min = nullptr) {
   block.forEachEvidenceVoxel([&](int v) {
     const auto [nf, nh] = evidence.counts(block, v);
+    if (at_min != nullptr && nh == 0 && at_min->test(v)) return;
     *out++ = Entry{block.voxelKey(v), nf, nh};
   });
+}
+
+/// True when a block holds a cell that at_min does not exempt: a hit, or a free mark on a cell not known to
+/// be at the lower clamp.
+bool needsUpdate(const EvidenceBlock& block, const BitPlane& at_min) {
+  std::uint64_t any = 0;
+  for (std::size_t w = 0; w < block.free.words.size(); ++w)
+    any |= block.hit.words[w] | (block.free.words[w] & ~at_min.words[w]);
+  return any != 0;
+}
+
+/// Records a cell's new value in its block's at-min plane.
+inline void noteValue(BitPlane* at_min, const VoxelKey& key, float value, const LogOdds& lo) {
+  if (at_min == nullptr) return;
+  if (value <= lo.min) {
+    at_min->set(voxelIndexInBlock(key));
+  } else {
+    at_min->reset(voxelIndexInBlock(key));
+  }
 }
 
 }  // namespace
@@ -95,9 +117,8 @@ class BatchTreeUpdater {
   /// stay in cache) instead of a serial pass listing every cell first. Where the top meets a pruned leaf
   /// above kSplitDepth, OctoMap's early abort needs every cell below it: those blocks' cells are listed
   /// into `listed` and their whole subtree becomes one task.
-  void runByBlock(const std::vector<std::pair<std::uint64_t, const EvidenceBlock*>>& blocks,
-                  const ScanEvidence& evidence, std::vector<Entry>& listed,
-                  std::vector<std::vector<Entry>>& scratch) {
+  void runByBlock(const std::vector<OctreeMap::BlockToApply>& blocks, const ScanEvidence& evidence,
+                  std::vector<Entry>& listed, std::vector<std::vector<Entry>>& scratch) {
     if (blocks.empty()) return;
     tasks_.clear();
     upper_.clear();
@@ -110,7 +131,7 @@ class BatchTreeUpdater {
   }
 
  private:
-  using BlockRef = std::pair<std::uint64_t, const EvidenceBlock*>;
+  using BlockRef = OctreeMap::BlockToApply;
 
   /// A subtree to update: its cells are [begin, end) of the entries, or (by-block runs) `block`'s cells,
   /// or [first, last) of the listed entries.
@@ -121,6 +142,7 @@ class BatchTreeUpdater {
     Entry* begin = nullptr;
     Entry* end = nullptr;
     const EvidenceBlock* block = nullptr;
+    BitPlane* at_min = nullptr;  // the block's at-min plane (by-block tasks of one block)
     std::size_t first = 0, last = 0;
   };
 
@@ -140,14 +162,15 @@ class BatchTreeUpdater {
       if (t.block != nullptr) {
         std::vector<Entry>& list = (*scratch)[thread];
         list.clear();
-        listCells(*evidence_, *t.block, std::back_inserter(list));
+        listCells(*evidence_, *t.block, std::back_inserter(list), t.at_min);
         t.begin = list.data();
         t.end = list.data() + list.size();
       } else if (listed != nullptr) {
         t.begin = listed->data() + t.first;
         t.end = listed->data() + t.last;
       }
-      descend(*factories[thread], t.node, t.just_created, t.depth, t.begin, t.end, false);
+      if (t.begin != t.end)
+        descend(*factories[thread], t.node, t.just_created, t.depth, t.begin, t.end, false, t.at_min);
     }
     // Node count changes made through each factory (unsigned wrap-around handles net deletions).
     for (std::size_t t = 0; t < factories.size(); ++t) tree_.addToNodeCount(factories[t]->size() - before[t]);
@@ -162,22 +185,29 @@ class BatchTreeUpdater {
   void descendBlocks(octomap::OcTreeNode* node, bool just_created, unsigned depth, const BlockRef* b,
                      const BlockRef* e, std::vector<Entry>& listed) {
     if (depth == kSplitDepth) {  // one block: blocks are distinct and aligned to the subtrees here
-      tasks_.push_back({.node = node, .just_created = just_created, .depth = depth, .block = b->second});
+      tasks_.push_back({.node = node,
+                        .just_created = just_created,
+                        .depth = depth,
+                        .block = b->evidence,
+                        .at_min = b->at_min});
       return;
     }
     if (!just_created && !tree_.nodeHasChildren(node)) {
+      // Listed in full and not tracked: the blocks' at-min planes are forgotten.
       Task t{.node = node, .just_created = false, .depth = depth, .first = listed.size()};
-      for (const BlockRef* it = b; it != e; ++it)
-        listCells(*evidence_, *it->second, std::back_inserter(listed));
+      for (const BlockRef* it = b; it != e; ++it) {
+        listCells(*evidence_, *it->evidence, std::back_inserter(listed));
+        it->at_min->clear();
+      }
       t.last = listed.size();
       tasks_.push_back(t);
       return;
     }
     const unsigned level = kKeyDepth - 1 - depth;
     for (const BlockRef* it = b; it != e;) {
-      const unsigned pos = childIndex(it->second->base, level);
+      const unsigned pos = childIndex(it->evidence->base, level);
       const BlockRef* run_end = it + 1;
-      while (run_end != e && childIndex(run_end->second->base, level) == pos) ++run_end;
+      while (run_end != e && childIndex(run_end->evidence->base, level) == pos) ++run_end;
       bool created = false;
       if (!tree_.nodeChildExists(node, pos)) {
         tree_.createNodeChild(node, pos);
@@ -201,20 +231,28 @@ class BatchTreeUpdater {
   /// `factory` creates and deletes nodes (and counts them); `top` records tasks at kSplitDepth and defers
   /// the upper nodes' prune-or-max to the end instead of doing it on the way up.
   void descend(octomap::OcTree& factory, octomap::OcTreeNode* node, bool just_created, unsigned depth,
-               Entry* b, Entry* e, bool top) {
+               Entry* b, Entry* e, bool top, BitPlane* at_min = nullptr) {
     if (depth == kKeyDepth) {
-      node->setLogOdds(applyCellUpdate(node->getLogOdds(), b->n_free, b->n_hit, lo_));
+      const float v = applyCellUpdate(node->getLogOdds(), b->n_free, b->n_hit, lo_);
+      node->setLogOdds(v);
+      noteValue(at_min, b->key, v, lo_);
       return;
     }
     if (!just_created && !factory.nodeHasChildren(node)) {
       // A pruned leaf: OctoMap's early abort skips the cells it already clamps; expand only for the rest.
       const float v = node->getLogOdds();
-      e = std::remove_if(b, e, [&](const Entry& x) { return isNoOpUpdate(true, v, x.n_free, x.n_hit, lo_); });
+      e = std::remove_if(b, e, [&](const Entry& x) {
+        if (!isNoOpUpdate(true, v, x.n_free, x.n_hit, lo_)) return false;
+        noteValue(at_min, x.key, v, lo_);
+        return true;
+      });
       if (e == b) return;
       if (updatesEveryCellAlike(b, e, depth)) {
         // OctoMap would expand this leaf, give every cell the same new value and prune the children back
         // into it on the way up: the same leaf with that value, and no node allocated or freed.
-        node->setLogOdds(applyCellUpdate(v, b->n_free, b->n_hit, lo_));
+        const float nv = applyCellUpdate(v, b->n_free, b->n_hit, lo_);
+        node->setLogOdds(nv);
+        for (const Entry* x = b; x != e; ++x) noteValue(at_min, x->key, nv, lo_);
         return;
       }
       factory.expandNode(node);
@@ -241,7 +279,7 @@ class BatchTreeUpdater {
         factory.createNodeChild(node, pos);
         created = true;
       }
-      descend(factory, factory.getNodeChild(node, pos), created, depth + 1, it, run_end, top);
+      descend(factory, factory.getNodeChild(node, pos), created, depth + 1, it, run_end, top, at_min);
       it = run_end;
     }
     if (top) {
@@ -290,14 +328,26 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
   // (Morton order within the block), which sorts every cell without a full sort.
   auto& blocks = blocks_;
   blocks.clear();
-  evidence.forEachBlock([&](const EvidenceBlock& b) {
-    if (b.hasEvidence()) blocks.emplace_back(mortonCode(b.base), &b);  // a block may hold region marks only
-  });
-  std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   if (tree_->getRoot() != nullptr && evidence.overflowCount() == 0) {
+    // By block, leaving out what at_min_ shows to be early aborts (whole blocks where nothing else is).
+    evidence.forEachBlock([&](const EvidenceBlock& b) {
+      if (!b.hasEvidence()) return;  // a block may hold region marks only
+      BitPlane& at_min = at_min_.try_emplace(b.base.packed()).first->second;  // zeroed when new
+      if (needsUpdate(b, at_min)) blocks.push_back({mortonCode(b.base), &b, &at_min});
+    });
+    std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.morton < b.morton; });
     BatchTreeUpdater(*tree_, log_odds_, factories_).runByBlock(blocks, evidence, entries_, task_entries_);
+    // Planes only for blocks with a cell at the lower clamp (a block seen once holds none).
+    for (const BlockToApply& b : blocks)
+      if (!b.at_min->any()) at_min_.erase(b.evidence->base.packed());
     return;
   }
+  // The cell-by-cell pass below does not track at_min_.
+  at_min_.clear();
+  evidence.forEachBlock([&](const EvidenceBlock& b) {
+    if (b.hasEvidence()) blocks.push_back({mortonCode(b.base), &b, nullptr});  // may hold region marks only
+  });
+  std::sort(blocks.begin(), blocks.end(), [](const auto& a, const auto& b) { return a.morton < b.morton; });
   // An empty tree (its root is made by OctoMap's own updateNode) or cells outside the evidence box: every
   // cell listed first, in Morton order. Each block's cells go to their own slice of the list (popcount
   // prefix sums), filled in parallel.
@@ -307,7 +357,7 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < blocks.size(); ++i) {
     std::size_t n = 0;
-    const EvidenceBlock& b = *blocks[i].second;
+    const EvidenceBlock& b = *blocks[i].evidence;
     for (std::size_t w = 0; w < b.free.words.size(); ++w)
       n += static_cast<std::size_t>(std::popcount(b.free.words[w] | b.hit.words[w]));
     offset[i + 1] = n;
@@ -316,7 +366,7 @@ void OctreeMap::apply(const ScanEvidence& evidence) {
   entries.resize(offset.back());
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::size_t i = 0; i < blocks.size(); ++i) {
-    listCells(evidence, *blocks[i].second, entries.begin() + static_cast<std::ptrdiff_t>(offset[i]));
+    listCells(evidence, *blocks[i].evidence, entries.begin() + static_cast<std::ptrdiff_t>(offset[i]));
   }
   if (evidence.overflowCount() > 0) {
     evidence.forEachOverflowCell([&](const VoxelKey& k, std::uint32_t nf, std::uint32_t nh) {
@@ -348,7 +398,17 @@ std::size_t OctreeMap::knownCells() const {
   return n;
 }
 
-std::size_t OctreeMap::memoryBytes() const { return tree_->memoryUsage(); }
+std::size_t OctreeMap::cellsKnownAtMin() const {
+  std::size_t n = 0;
+  for (const auto& [id, plane] : at_min_)
+    for (const std::uint64_t w : plane.words) n += static_cast<std::size_t>(std::popcount(w));
+  return n;
+}
+
+std::size_t OctreeMap::memoryBytes() const {
+  // at_min_: a plane per block plus the hash map's node and bucket (about four words).
+  return tree_->memoryUsage() + at_min_.size() * (sizeof(BitPlane) + 4 * sizeof(void*));
+}
 
 void OctreeMap::forEachCell(const std::function<void(const VoxelKey&, float)>& f) const {
   for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {

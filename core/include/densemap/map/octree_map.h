@@ -6,11 +6,13 @@
 #pragma once
 
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include <octomap/OcTree.h>
 
 #include "densemap/map/occupancy_map.h"
+#include "densemap/map/scan_evidence.h"
 
 namespace densemap::map {
 
@@ -50,13 +52,24 @@ class OctreeMap : public OccupancyMap {
   void forEachCellInBox(const VoxelKey& lo, const VoxelKey& hi,
                         const std::function<void(const VoxelKey&, float)>& f) const override;
   std::size_t eraseBox(const VoxelKey& lo, const VoxelKey& hi) override {
+    at_min_.clear();
     return tree_->eraseBox(octomap::OcTreeKey(lo[0], lo[1], lo[2]), octomap::OcTreeKey(hi[0], hi[1], hi[2]));
   }
-  void clear() override { tree_->clear(); }
+  void clear() override {
+    at_min_.clear();
+    tree_->clear();
+  }
   std::unique_ptr<OccupancyMap> clone() const override;
 
-  octomap::OcTree& tree() { return *tree_; }
   const octomap::OcTree& tree() const { return *tree_; }
+  /// Cells this map knows to be at the lower clamp (see at_min_), for tests and statistics.
+  std::size_t cellsKnownAtMin() const;
+  /// The tree, to change it (loading a file): the map then forgets which cells it knew to be at the lower
+  /// clamp (at_min_).
+  octomap::OcTree& mutableTree() {
+    at_min_.clear();
+    return *tree_;
+  }
 
   /// Builds an OcTree with the same resolution and sensor model (for OctoMap reference runs).
   static std::unique_ptr<octomap::OcTree> makeTree(double resolution, const OccupancyParams& params);
@@ -69,12 +82,24 @@ class OctreeMap : public OccupancyMap {
     std::uint32_t n_free;
     std::uint32_t n_hit;
   };
+  /// An evidence block to apply: its Morton code (the sort key), its evidence and its at_min_ plane.
+  struct BlockToApply {
+    std::uint64_t morton;
+    const EvidenceBlock* evidence;
+    BitPlane* at_min;
+  };
 
  private:
   std::unique_ptr<CountedOcTree> tree_;
   std::vector<Entry> entries_;                    // per-scan buffer, kept to avoid reallocating
   std::vector<std::vector<Entry>> task_entries_;  // one block's cells per thread (by-block updates)
-  std::vector<std::pair<std::uint64_t, const EvidenceBlock*>> blocks_;
+  std::vector<BlockToApply> blocks_;
+  /// Per 16^3 block (by its base key), cells this map set to the lower clamp itself and has not changed
+  /// since. A scan's free-only update of such a cell is one of OctoMap's early aborts (no change anywhere
+  /// in the tree), so apply() leaves it out without reading the tree, and skips a block where nothing else
+  /// is left. A set bit is always true; a clear bit says nothing. Forgotten (cleared) whenever the tree
+  /// may change other than through apply()'s by-block pass.
+  std::unordered_map<std::uint64_t, BitPlane> at_min_;
   std::vector<std::size_t> offsets_;
   std::vector<std::unique_ptr<octomap::OcTree>> factories_;  // per-thread node factories for apply()
 };
