@@ -22,7 +22,6 @@ class JoiningClient {
   JoiningClient(msg::DdsOptions dds, Arg arg, std::unique_ptr<msg::DdsNode> node = nullptr)
       : dds_(std::move(dds)), arg_(std::move(arg)), node_(std::move(node)) {
     if (!node_) node_ = std::make_unique<msg::DdsNode>(dds_);
-    participants_ = 1;
   }
   JoiningClient(const JoiningClient&) = delete;
   JoiningClient& operator=(const JoiningClient&) = delete;
@@ -55,7 +54,7 @@ class JoiningClient {
   Arg arg_;
   std::unique_ptr<msg::DdsNode> node_;
   std::optional<Client> client_;  // declared after node_: destroyed before its participant
-  int participants_ = 0;
+  int participants_ = 1;
 };
 
 }  // namespace densemap::client
