@@ -55,8 +55,8 @@ for v in robots clients ros2_robots days; do
   [[ "${!v}" =~ ^[0-9]+$ ]] || die "--${v//_/-} must be a whole number, not '${!v}'"
 done
 [ "$days" -ge 1 ] || die "--days must be at least 1"
-[[ -z "$namespace" || "$namespace" =~ ^[A-Za-z0-9_]+(/[A-Za-z0-9_]+)*$ ]] ||
-  die "--namespace '$namespace' is not a topic namespace (letters, digits, _ and /)"
+[[ -z "$namespace" || "$namespace" =~ ^[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z0-9_]+)*$ ]] ||
+  die "--namespace '$namespace' is not a topic namespace (letters, digits, _ and /, not starting with a digit)"
 command -v openssl > /dev/null || die "openssl is missing: apt-get install openssl"
 [[ "$dir" =~ [[:space:]] ]] && die "DIR must not contain white space ('$dir'): openssl's configuration cannot quote it"
 mkdir -p "$dir"
@@ -65,6 +65,9 @@ private="$dir/private" public="$dir/public" db="$dir/private/ca"
 settings="$private/settings" identities="$private/identities.txt"
 
 valid_name() { [[ "$1" =~ ^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$ ]]; }
+# An id as it stands in a topic name: the one-to-one escape of idl/include/densemap/msg/peer_topic.h
+# ('_' -> __, '-' -> _h, '.' -> _d), so every name is one any DDS accepts and robot-0 never meets robot_0.
+topic_name() { local s="${1//_/__}"; s="${s//-/_h}"; echo "${s//./_d}"; }
 stamp() { date -u -d "$1" +%Y%m%d%H%M%SZ 2> /dev/null || die "cannot read the date '$1'"; }
 xml_time() { date -u -d "$1" +%Y-%m-%dT%H:%M:%S; }
 
@@ -187,12 +190,13 @@ rule() { # allow_rule|deny_rule, then "publish: a b" "subscribe: c d"
 }
 
 # What each role may publish and subscribe to. Replies go to a topic per client (.../reply/<name>, or
-# .../reply/<name>.<k> for a program's k-th client), which only that identity may read. A robot's scans,
-# acknowledgements and progress go on topics of its own (.../scans/<name>, or .../scans/<name>-<k> for a
-# program publishing for several robots), which only that identity may write or read: the server checks each
+# .../reply/<name>.<k> for a program's k-th client, written .../reply/<name>_d<k>), which only that identity
+# may read. A robot's scans, acknowledgements and progress go on topics of its own (.../scans/<name>, or
+# .../scans/<name>-<k> for a program publishing for several robots, written .../scans/<name>_h<k>), which only that identity may write or read: the server checks each
 # scan's robot id against its topic, so a robot cannot send as another or read another's acknowledgements. The ROS 2 edge's topics are ROS 2's (rt/ topics, rq/ and rr/ services).
 permission_rules() { # role name
-  local role="$1" name="$2"
+  local role="$1" name
+  name="$(topic_name "$2")"
   case "$role" in
     server)
       rule allow_rule \
@@ -200,16 +204,16 @@ permission_rules() { # role name
         "subscribe: densemap/scans/* densemap/query/request densemap/admin/request densemap/statistics rt/* rq/* ros_discovery_info"
       ;;
     robot)
-      rule allow_rule "publish: densemap/scans/$name densemap/scans/$name-*" \
-        "subscribe: densemap/scan_acks/$name densemap/scan_acks/$name-* densemap/robot_progress/$name densemap/robot_progress/$name-* densemap/statistics"
+      rule allow_rule "publish: densemap/scans/$name densemap/scans/${name}_h*" \
+        "subscribe: densemap/scan_acks/$name densemap/scan_acks/${name}_h* densemap/robot_progress/$name densemap/robot_progress/${name}_h* densemap/statistics"
       ;;
     client)
       rule allow_rule "publish: densemap/query/request" \
-        "subscribe: densemap/query/reply/$name densemap/query/reply/$name.* densemap/statistics"
+        "subscribe: densemap/query/reply/$name densemap/query/reply/${name}_d* densemap/statistics"
       ;;
     operator)
       rule allow_rule "publish: densemap/admin/request densemap/query/request" \
-        "subscribe: densemap/admin/reply/$name densemap/admin/reply/$name.* densemap/query/reply/$name densemap/query/reply/$name.* densemap/statistics densemap/robot_progress"
+        "subscribe: densemap/admin/reply/$name densemap/admin/reply/${name}_d* densemap/query/reply/$name densemap/query/reply/${name}_d* densemap/statistics densemap/robot_progress"
       ;;
     ros2-robot)
       # A ROS 2 robot publishes its clouds and transforms, reads the maps and offers its own nodes' services

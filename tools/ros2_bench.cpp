@@ -14,6 +14,7 @@
 #include "densemap/cli/cli_common.h"
 #include "densemap/client/ros2_player.h"
 #include "densemap/client/scan_publisher.h"
+#include "densemap/client/server_join.h"
 #include "densemap/io/ros_bag_source.h"
 #include "densemap/ros2/message_codec.h"
 #include "densemap/server/dds_edge/dds_edge.h"
@@ -78,7 +79,12 @@ Run runNative(const std::vector<io::Scan>& scans, int domain, bool fast, double 
   d.name = "bench-robot";
   msg::DdsNode node(d);
   client::ScanPublisher pub(node, {"robot-0"});
-  if (!pub.waitForServer(std::chrono::seconds(20))) throw std::runtime_error("the native edge did not match");
+  const client::JoinContext context =
+      client::joinContext(d, node, "this bench's own server reading densemap/scans/robot_h0");
+  const auto joined = client::joinServer([&]() -> client::ScanPublisher& { return pub; }, [] {},
+                                         std::chrono::seconds(20), std::chrono::seconds(20), &context);
+  if (!joined.joined)
+    throw std::runtime_error(client::noServerMessage(context, std::chrono::seconds(20), joined.state));
   MappedWatch watch(service, scans.size(), 60);
   const auto t0 = Clock::now();
   for (std::size_t i = 0; i < scans.size(); ++i) {
@@ -114,10 +120,13 @@ Run runRos2(const ros2::BagReader& bag, const std::string& cloud_topic, std::siz
   client::Ros2PlayOptions po;
   po.as_fast_as_possible = fast;
   po.wait_s = 20;
+  po.where = client::joinContext(d, node, "").where;
   // Clouds are best effort (as recorded): when some are lost the watch ends at its timeout, and the
   // ingest rate counts only the mapped ones.
   MappedWatch watch(service, clouds, fast ? 5 : 60);
   const client::Ros2PlayResult played = client::playBag(bag, node, po);
+  if (!played.unread_topic.empty())
+    throw std::runtime_error("the ROS 2 edge did not read " + played.unread_topic);
   r.sent = played.clouds;
   // From the first message (matching left out, as for the native robot) to the last cloud in the map.
   r.seconds = std::chrono::duration<double>(watch.done() - played.first_sent).count();

@@ -18,7 +18,7 @@
 #include "densemap/client/server_join.h"
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/msg/dds_options_cli.h"
-#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/wire_types.h"
 
 using namespace densemap;
 using nlohmann::json;
@@ -140,9 +140,7 @@ int main(int argc, char** argv) {
   auto join_table = client::joinOptions(join_options);
   cli::addToApp(app, {&dds_table, &join_table, &logging_table});
   app.add_flag("--json", as_json, "print one JSON object instead of text");
-  app.add_option(
-         "--timeout", timeout_s,
-         "seconds to wait for the server (secure mode: at least --secure-join-wait) and for each reply")
+  app.add_option("--timeout", timeout_s, "seconds to wait for each reply (the wait for the server is --wait)")
       ->capture_default_str();
   app.add_option("--layer", layer_name, "occupancy (exact log-odds map), dense or fused")
       ->capture_default_str()
@@ -294,24 +292,18 @@ int main(int argc, char** argv) {
       return 0;
     }
     const std::string client_id = client::clientIdOf(*node, "query-" + std::to_string(::getpid()));
-    auto noServer = [&](std::chrono::milliseconds waited, const std::string& state) {
-      return std::runtime_error("no densemap-server answered on DDS domain " + std::to_string(dds.domain) +
-                                (dds.loopback ? " (loopback)" : "") + " within " +
-                                fmt::format("{:g}", std::chrono::duration<double>(waited).count()) +
-                                " s; start one or check --domain (" + state + ")");
-    };
     // Waits for the server through a client that owns the participant from here on.
-    const auto joined = [&](auto& c) -> auto& {
-      const bool secure = c.node().secure();
-      const auto wait = join_options.wait(secure, timeout);
-      const auto j = c.join(wait, join_options.attempt(secure, wait));
-      if (!j.joined) throw noServer(wait, j.state);
+    const auto joined = [&](auto& c, const char* topic) -> auto& {
+      const client::JoinContext context =
+          client::joinContext(dds, c.node(), "a densemap-server answering on " + c.node().topicName(topic));
+      const auto j = c.join(join_options.wait(), join_options.attempt(c.node().secure()), &context);
+      if (!j.joined) throw std::runtime_error(client::noServerMessage(context, join_options.wait(), j.state));
       return c.client();
     };
     if (*save || *load || *clear || *reset) {
       // Commands go to the admin topic (a permissions file may grant queries but not these).
       client::JoiningClient<client::AdminClient, std::string> admin(dds, client_id, std::move(node));
-      client::AdminClient& ac = joined(admin);
+      client::AdminClient& ac = joined(admin, msg::kAdminRequestTopic);
       const msg::AdminRequest rq = *save    ? client::saveRequest(map_name)
                                    : *load  ? client::loadRequest(map_name)
                                    : *clear ? client::clearBoxRequest(parseXyz(box_min), parseXyz(box_max))
@@ -331,7 +323,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     client::JoiningClient<client::QueryClient, std::string> query(dds, client_id, std::move(node));
-    client::QueryClient& qc = joined(query);
+    client::QueryClient& qc = joined(query, msg::kQueryRequestTopic);
     msg::QueryRequest rq;
     rq.layer(layer_name == "dense"   ? msg::LAYER_DENSE
              : layer_name == "fused" ? msg::LAYER_FUSED

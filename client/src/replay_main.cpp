@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -29,6 +30,7 @@
 #include "densemap/client/server_join.h"
 #include "densemap/densify/range_image.h"
 #include "densemap/msg/dds_options_cli.h"
+#include "densemap/msg/peer_topic.h"
 #include "densemap/ros2/bag_reader.h"
 #include "densemap/util/percentile.h"
 #include "densemap/util/realtime_priority.h"
@@ -67,6 +69,16 @@ class ScanLog {
 
 using util::percentile;
 
+/// densemap-replay --ros2 when no subscriber (a densemap-server --ros2, or any ROS 2 node) read the clouds.
+int ros2NobodyReads(const client::JoinContext& context, const client::Ros2PlayResult& r, double wait_s) {
+  spdlog::error(
+      "{} (nothing was published; a ROS 2 server is densemap-server --ros2, whose --cloud-topic must "
+      "be this topic)",
+      client::noServerMessage(context, std::chrono::milliseconds(static_cast<long>(wait_s * 1000)),
+                              "no reader of " + r.unread_topic));
+  return 1;
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"densemap-replay: publish scans from a source as robots to a densemap-server over DDS"};
   msg::DdsOptions dds;
@@ -74,7 +86,7 @@ int main(int argc, char** argv) {
   std::string prefix = "robot", offset_text = "0,0,0", summary_json, log_level = "info";
   int robots = 1, loops = 1, query_clients = 0, first_robot = 0, beam_step = 0;
   std::size_t max_scans = 0;
-  double rate = 10.0, speed = 1.0, wait_s = 60.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
+  double rate = 10.0, speed = 1.0, query_radius = 20.0, query_rate = 0.0, duration_s = 10.0;
   std::string center_text = "0,0,0", query_kind = "points";
   std::size_t query_points = 1000;
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
@@ -113,9 +125,6 @@ int main(int argc, char** argv) {
   app.add_option("--loops", loops, "replay the range this many times (sequence numbers keep counting)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  app.add_option("--wait", wait_s,
-                 "seconds to wait for the server (start) and for its acknowledgements (end)")
-      ->capture_default_str();
   app.add_option("--query-clients", query_clients, "query clients sending point queries during the replay")
       ->capture_default_str();
   app.add_option("--query-points", query_points, "points per query")->capture_default_str();
@@ -165,6 +174,7 @@ int main(int argc, char** argv) {
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &dds_table, &join_table, &logging_table}))
     return *rc;
   cli::setupLogging(log_level);
+  const double wait_s = join_options.wait_s;
   if (ros2_mode && ros2::isBag(source.source)) {
     try {
       const auto bag = ros2::openBag(source.source);
@@ -175,7 +185,10 @@ int main(int argc, char** argv) {
       o.wait_s = wait_s;
       dds.name = "densemap-replay";
       msg::DdsNode node(dds);
+      const client::JoinContext context = client::joinContext(dds, node, "a subscriber to the bag's clouds");
+      o.where = context.where;
       const client::Ros2PlayResult r = client::playBag(*bag, node, o);
+      if (!r.unread_topic.empty()) return ros2NobodyReads(context, r, wait_s);
       std::printf("played %zu messages (%zu clouds) in %.2f s\n", r.messages, r.clouds, r.seconds);
       return 0;
     } catch (const std::exception& e) {
@@ -223,7 +236,10 @@ int main(int argc, char** argv) {
       if (!source.options.frames.cloud_topic.empty()) o.cloud_topic = source.options.frames.cloud_topic;
       o.fixed_frame = source.options.frames.fixed_frame;
       msg::DdsNode node(dds);
+      const client::JoinContext context = client::joinContext(dds, node, "a subscriber to " + o.cloud_topic);
+      o.where = context.where;
       const client::Ros2PlayResult r = client::playScans(data, node, o);
+      if (!r.unread_topic.empty()) return ros2NobodyReads(context, r, wait_s);
       std::printf("published %zu clouds with their transforms in %.2f s\n", r.clouds, r.seconds);
       return 0;
     }
@@ -281,37 +297,32 @@ int main(int argc, char** argv) {
       }
     };
     join();
-    const auto wait = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
+    const auto wait = join_options.wait();
     int rejoins = 0;
-    // Secure mode waits at least --secure-join-wait for the server to match this program.
-    const auto join_wait = join_options.wait(node->secure(), wait);
-    const auto attempt = join_options.attempt(node->secure(), join_wait);
-    const std::string join_wait_text = fmt::format("{:g}", std::chrono::duration<double>(join_wait).count());
+    const auto join_wait = wait;
+    const auto attempt = join_options.attempt(node->secure());
     std::vector<std::unique_ptr<client::QueryClient>> query_clients_v;
     const auto add_query_client = [&] {
       const auto c = std::to_string(query_clients_v.size());
       query_clients_v.push_back(std::make_unique<client::QueryClient>(
           *node, client::clientIdOf(*node, "replay-" + std::to_string(::getpid()) + "-q" + c, "q" + c)));
     };
-    const auto no_query_server = [&](const std::string& state) {
-      return std::runtime_error("no densemap-server answers queries on DDS domain " +
-                                std::to_string(dds.domain) + " within " + join_wait_text +
-                                " s; start it first or check --domain (secure: an identity whose role may "
-                                "query, e.g. client-1) (" +
-                                state + ")");
-    };
     if (publisher) {
+      const client::JoinContext context = client::joinContext(
+          dds, *node,
+          fmt::format("a densemap-server to read the scans of {} robot(s) on {} ...", ids.size(),
+                      node->topicName(msg::peerTopicOf(msg::kScanTopic, *ids.begin()))));
       const auto joined = client::joinServer([&]() -> client::ScanPublisher& { return *publisher; }, join,
-                                             join_wait, attempt);
+                                             join_wait, attempt, &context);
       rejoins = joined.rejoins;
-      if (!joined.joined) {
-        throw std::runtime_error("no densemap-server subscribed to scans on DDS domain " +
-                                 std::to_string(dds.domain) + " within " + join_wait_text +
-                                 " s; start it first or check --domain (" + joined.state + ")");
-      }
+      if (!joined.joined) throw std::runtime_error(client::noServerMessage(context, join_wait, joined.state));
     } else if (query_clients > 0) {
       // Queries only: the first query client joins for the participant (made again as a robot's would be).
       add_query_client();
+      const client::JoinContext context = client::joinContext(
+          dds, *node,
+          "a densemap-server answering queries on " + node->topicName(msg::kQueryRequestTopic) +
+              " (secure: an identity whose role may query, e.g. client-1)");
       const auto joined =
           client::joinServer([&]() -> client::QueryClient& { return *query_clients_v.front(); },
                              [&] {
@@ -319,9 +330,9 @@ int main(int argc, char** argv) {
                                join();
                                add_query_client();
                              },
-                             join_wait, attempt);
+                             join_wait, attempt, &context);
       rejoins = joined.rejoins;
-      if (!joined.joined) throw no_query_server(joined.state);
+      if (!joined.joined) throw std::runtime_error(client::noServerMessage(context, join_wait, joined.state));
     }
     const auto since_join = [&joined_from](std::chrono::steady_clock::time_point t) {
       return std::chrono::duration<double, std::milli>(t - joined_from).count();
@@ -351,8 +362,11 @@ int main(int argc, char** argv) {
     // The rest join on a participant the server has matched already.
     while (static_cast<int>(query_clients_v.size()) < query_clients) {
       add_query_client();
-      if (!query_clients_v.back()->waitForServer(wait))
-        throw no_query_server(query_clients_v.back()->joinState());
+      if (!query_clients_v.back()->waitForServer(wait)) {
+        const client::JoinContext context = client::joinContext(
+            dds, *node, "a densemap-server answering queries on " + node->topicName(msg::kQueryRequestTopic));
+        throw std::runtime_error(client::noServerMessage(context, wait, query_clients_v.back()->joinState()));
+      }
     }
     if (!publisher) matched_ms = server_ready_ms = since_join(std::chrono::steady_clock::now());
     for (int c = 0; c < query_clients; ++c) {
@@ -483,7 +497,29 @@ int main(int argc, char** argv) {
         resends.skipped += resender.counts().skipped;
       });
     }
-    for (auto& t : robot_threads) t.join();
+    {
+      // One line every 10 s while the robots send and settle: a stall never looks like a hang.
+      std::mutex report_mutex;
+      std::condition_variable report_wake;
+      bool robots_done = false;
+      std::thread reporter([&] {
+        std::unique_lock lock(report_mutex);
+        while (!report_wake.wait_for(lock, std::chrono::seconds(10), [&] { return robots_done; })) {
+          const std::uint64_t acked = publisher ? publisher->acks(ids).total() : 0;
+          spdlog::info("sent {} of {} scans, {} acknowledged, {} waiting for an acknowledgement{}",
+                       sent.load(), total, acked, sent.load() - std::min<std::uint64_t>(sent.load(), acked),
+                       refused.load() > 0 ? fmt::format(", {} sends refused by DDS (retried)", refused.load())
+                                          : std::string());
+        }
+      });
+      for (auto& t : robot_threads) t.join();
+      {
+        std::lock_guard lock(report_mutex);
+        robots_done = true;
+      }
+      report_wake.notify_all();
+      reporter.join();
+    }
     if (robots == 0) std::this_thread::sleep_for(std::chrono::duration<double>(duration_s));
     const double publish_s = std::chrono::duration<double>(Clock::now() - t_start).count();
     const client::AckCounts acks =

@@ -22,22 +22,54 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-bool waitForReader(fdds::DataWriter* w, double wait_s) {
-  const auto until = Clock::now() + std::chrono::duration<double>(wait_s);
+int subscribers(fdds::DataWriter* w) {
+  fdds::PublicationMatchedStatus s;
+  w->get_publication_matched_status(s);
+  return s.current_count;
+}
+
+/// Waits for a subscriber to `w`'s topic, saying what it waits for after 1 s and every 10 s after.
+bool waitForReader(fdds::DataWriter* w, const Ros2PlayOptions& options) {
+  const auto start = Clock::now();
+  const auto until = start + std::chrono::duration<double>(options.wait_s);
+  auto report = start + std::chrono::seconds(1);
   while (Clock::now() < until) {
-    fdds::PublicationMatchedStatus s;
-    w->get_publication_matched_status(s);
-    if (s.current_count > 0) {
+    if (subscribers(w) > 0) {
       // Matching is not symmetric: the reader matches this writer a moment after this writer matched it,
       // and a best-effort sample sent in between is lost. A subscriber's side is not visible from here, so
       // give it a moment (ros2 bag play's --delay plays the same role).
       std::this_thread::sleep_for(std::chrono::milliseconds(250));
       return true;
     }
+    if (Clock::now() >= report) {
+      spdlog::info("{} for a subscriber to {} ({:.0f} s of {:g} s) on {}",
+                   report == start + std::chrono::seconds(1) ? "waiting" : "still waiting",
+                   w->get_topic()->get_name(), std::chrono::duration<double>(Clock::now() - start).count(),
+                   options.wait_s, options.where);
+      report = Clock::now() + std::chrono::seconds(10);
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;
 }
+
+/// One line every 10 s while playing (a ROS 2 player gets no acknowledgements: it says whether a
+/// subscriber is matched).
+class PlayReport {
+ public:
+  explicit PlayReport(fdds::DataWriter* clouds) : clouds_(clouds), next_(Clock::now() + kEvery) {}
+  void tick(std::size_t sent, std::size_t total, const char* what) {
+    if (Clock::now() < next_) return;
+    next_ = Clock::now() + kEvery;
+    spdlog::info("published {} of {} {}; {} subscriber(s) matched on {}", sent, total, what,
+                 clouds_ ? subscribers(clouds_) : 0, clouds_ ? clouds_->get_topic()->get_name() : "");
+  }
+
+ private:
+  static constexpr std::chrono::seconds kEvery{10};
+  fdds::DataWriter* clouds_;
+  Clock::time_point next_;
+};
 
 void finish(const std::vector<fdds::DataWriter*>& writers, double wait_s) {
   for (auto* w : writers) w->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(wait_s));
@@ -68,13 +100,15 @@ Ros2PlayResult playBag(const ros2::BagReader& bag, msg::DdsNode& node, const Ros
     spdlog::info("playing {} ({}) {} {} depth {}", t.name, t.type, qos.reliable ? "reliable" : "best effort",
                  qos.transient_local ? "transient local" : "volatile", qos.depth);
   }
-  for (auto* w : cloud_writers)
-    if (!waitForReader(w, options.wait_s))
-      spdlog::warn("no subscriber to {} within {} s; playing anyway", w->get_topic()->get_name(),
-                   options.wait_s);
   Ros2PlayResult r;
+  for (auto* w : cloud_writers) {
+    if (waitForReader(w, options)) continue;
+    r.unread_topic = w->get_topic()->get_name();
+    return r;  // nobody reads the clouds: the caller says why that may be
+  }
   const auto& messages = bag.messages();
   if (messages.empty()) return r;
+  PlayReport report(cloud_writers.empty() ? nullptr : cloud_writers.front());
   const auto start = Clock::now();
   r.first_sent = start;
   const std::int64_t t0 = messages.front().log_time_ns;
@@ -92,6 +126,7 @@ Ros2PlayResult playBag(const ros2::BagReader& bag, msg::DdsNode& node, const Ros
     ++r.messages;
     if (bag.topics()[m.topic].type == ros2::kPointCloud2Type) ++r.clouds;
     progress.step(r.messages);
+    report.tick(r.messages, messages.size(), "messages");
   }
   std::vector<fdds::DataWriter*> all;
   for (auto* w : writers)
@@ -110,10 +145,13 @@ Ros2PlayResult playScans(const std::vector<io::Scan>& scans, msg::DdsNode& node,
   // A LiDAR driver's sensor-data QoS, and tf2's broadcaster QoS.
   fdds::DataWriter* cloud_writer = node.writer(clouds, msg::writerQos(ros2::Qos::sensorData()));
   fdds::DataWriter* tf_writer = node.writer(tf, msg::writerQos(ros2::Qos::tf()));
-  if (!waitForReader(cloud_writer, options.wait_s))
-    spdlog::warn("no subscriber to {} within {} s; publishing anyway", options.cloud_topic, options.wait_s);
-  waitForReader(tf_writer, options.wait_s);
   Ros2PlayResult r;
+  if (!waitForReader(cloud_writer, options)) {
+    r.unread_topic = cloud_writer->get_topic()->get_name();
+    return r;
+  }
+  waitForReader(tf_writer, options);
+  PlayReport report(cloud_writer);
   const auto start = Clock::now();
   r.first_sent = start;
   const auto period = std::chrono::duration<double>(options.rate > 0 ? 1.0 / options.rate : 0.0);
@@ -131,6 +169,7 @@ Ros2PlayResult playScans(const std::vector<io::Scan>& scans, msg::DdsNode& node,
     r.messages += 2;
     ++r.clouds;
     progress.step(i + 1);
+    report.tick(r.clouds, scans.size(), "clouds");
   }
   finish({tf_writer, cloud_writer}, options.wait_s);
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();

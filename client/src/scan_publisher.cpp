@@ -8,8 +8,8 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "densemap/client/server_join.h"
-#include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::client {
 

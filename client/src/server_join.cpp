@@ -2,53 +2,110 @@
 
 #include <algorithm>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 namespace densemap::client {
 
+namespace {
+using Clock = std::chrono::steady_clock;
+/// The first word within 2 s of starting to wait, then one line every 10 s.
+constexpr std::chrono::milliseconds kFirstReport{1000}, kReportEvery{10000};
+
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+}  // namespace
+
+JoinContext joinContext(const msg::DdsOptions& dds, const msg::DdsNode& node, std::string what) {
+  JoinContext c;
+  c.what = std::move(what);
+  c.secure = node.secure();
+  c.where =
+      fmt::format("DDS domain {}, {}, {}, {}", dds.domain,
+                  dds.topic_namespace.empty() ? "no namespace" : "namespace '" + dds.topic_namespace + "'",
+                  msg::describeTransport(dds),
+                  c.secure ? "secure as '" + node.identity().name + "'" : "plain (no DDS-Security)");
+  return c;
+}
+
+std::string noServerMessage(const JoinContext& context, std::chrono::milliseconds waited,
+                            const std::string& state) {
+  std::string causes =
+      "the server is not running yet or runs on another --domain; --loopback on one side only (it keeps DDS "
+      "on 127.0.0.1 and shared memory, where the other side is on the network); another --namespace; "
+      "multicast blocked between hosts (give --dds-peers); two independent servers on one namespace (each "
+      "refuses to serve: see their logs)";
+  causes +=
+      context.secure
+          ? "; the server refused this identity (another CA, expired or revoked: the server's log names "
+            "each refused participant) or this identity's role may not use these topics"
+          : "; the server is secure and this program is not (give --security-dir)";
+  return fmt::format("no densemap-server matched within {:g} s: waited for {} on {} ({}). Likely causes: {}",
+                     std::chrono::duration<double>(waited).count(), context.what, context.where, state,
+                     causes);
+}
+
 ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
-                          std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
-  using Clock = std::chrono::steady_clock;
-  const auto give_up = Clock::now() + timeout;
+                          std::chrono::milliseconds timeout, std::chrono::milliseconds attempt,
+                          const JoinContext* context) {
+  const auto start = Clock::now();
+  const auto give_up = start + timeout;
+  auto next_report = start + kFirstReport;
+  auto attempt_ends = start + attempt;
   ServerJoin out;
+  JoinTarget t = target();
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now());
-    const JoinTarget t = target();
-    if (t.wait_for_server(std::min(attempt, left))) {
+    const auto now = Clock::now();
+    const auto until = std::min({give_up, attempt_ends, context ? next_report : give_up});
+    if (t.wait_for_server(std::max(std::chrono::milliseconds(0),
+                                   std::chrono::duration_cast<std::chrono::milliseconds>(until - now)))) {
       out.joined = true;
+      if (context && Clock::now() > start + kFirstReport)
+        spdlog::info("matched the server after {:.1f} s", seconds(Clock::now() - start));
       return out;
     }
     out.state = t.state();
     if (Clock::now() >= give_up) return out;
-    spdlog::warn(
-        "the server has not matched this participant within {:.1f} s ({}): joining again with a new one",
-        std::chrono::duration<double>(attempt).count(), out.state);
-    rejoin();
-    ++out.rejoins;
+    if (context && Clock::now() >= next_report) {
+      if (next_report == start + kFirstReport) {
+        spdlog::info("waiting up to {:g} s for {} on {}", seconds(timeout), context->what, context->where);
+      } else {
+        spdlog::info("still waiting for the server ({:.0f} s of {:g} s): {}", seconds(Clock::now() - start),
+                     seconds(timeout), out.state);
+      }
+      next_report = Clock::now() + kReportEvery;
+    }
+    if (Clock::now() >= attempt_ends) {
+      spdlog::warn(
+          "the server has not matched this participant within {:.1f} s ({}): joining again with a new one",
+          seconds(attempt), out.state);
+      rejoin();
+      ++out.rejoins;
+      t = target();
+      attempt_ends = Clock::now() + attempt;
+    }
   }
 }
 
-std::chrono::milliseconds JoinOptions::attempt(bool secure, std::chrono::milliseconds timeout) const {
-  if (!secure || rejoin_after_s <= 0) return timeout;
-  return std::chrono::milliseconds(static_cast<long>(rejoin_after_s * 1000));
+std::chrono::milliseconds JoinOptions::wait() const {
+  return std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
 }
 
-std::chrono::milliseconds JoinOptions::wait(bool secure, std::chrono::milliseconds program_wait) const {
-  if (!secure) return program_wait;
-  return std::max(program_wait, std::chrono::milliseconds(static_cast<long>(secure_join_wait_s * 1000)));
+std::chrono::milliseconds JoinOptions::attempt(bool secure) const {
+  if (!secure || rejoin_after_s <= 0) return wait();
+  return std::chrono::milliseconds(static_cast<long>(rejoin_after_s * 1000));
 }
 
 cli::OptionTable joinOptions(JoinOptions& o) {
   cli::OptionTable t("Joining the server");
+  t.add("wait", o.wait_s,
+        "seconds to wait for a server to match this program before giving up with the likely causes (what is "
+        "awaited is logged after 1 s and every 10 s); robots also wait this long at the end for the last "
+        "acknowledgements")
+      .range(0.0, 86400.0);
   t.add("rejoin-after", o.rejoin_after_s,
         "secure mode: a participant the server has not matched within this many seconds is replaced by a new "
-        "one, until the wait for the server runs out (Fast DDS 2.9's secure discovery now and then never "
-        "matches one participant; a new one authenticates afresh); 0: never")
-      .range(0.0, 3600.0);
-  t.add("secure-join-wait", o.secure_join_wait_s,
-        "secure mode: seconds to wait in all for the server to match this program (authentication and the "
-        "new participants of --rejoin-after take time a plain join does not); the program's own wait for "
-        "the server applies when it is longer")
+        "one, until --wait runs out (Fast DDS 2.9's secure discovery now and then never matches one "
+        "participant; a new one authenticates afresh); 0: never")
       .range(0.0, 3600.0);
   return t;
 }

@@ -9,8 +9,6 @@
 #include <spdlog/spdlog.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
-#include "densemap/msg/densemapTypeObject.h"
-
 namespace densemap::msg {
 
 extern const char* const kEmbeddedProfilesXml;
@@ -25,7 +23,6 @@ void loadProfiles(const std::string& file) {
   static std::string loaded;
   static bool ok = false;
   std::call_once(once, [&] {
-    registerdensemapTypes();  // type objects, so DDS tools (e.g. Fast DDS Monitor) can show our types
     auto* factory = dds::DomainParticipantFactory::get_instance();
     if (file.empty()) {
       const std::string xml = kEmbeddedProfilesXml;
@@ -241,6 +238,19 @@ dds::DataWriterQos progressWriterQos() {
 
 dds::DataReaderQos progressReaderQos() {
   return progressQos(dds::DataReaderQos(dds::DATAREADER_QOS_DEFAULT));
+}
+
+std::string describeTransport(const DdsOptions& options) {
+  if (!options.profile_file.empty()) return "the transports of the profile file " + options.profile_file;
+  std::string t = options.udp_only ? "UDP" : "shared memory + UDP";
+  t += options.loopback ? " on 127.0.0.1 (--loopback)" : " on every interface";
+  if (options.udp_only) t += " (--udp-only)";
+  if (!options.peers.empty()) {
+    t += ", peers";
+    for (const std::string& p : options.peers) t += " " + p;
+  }
+  t += options.no_multicast ? ", no multicast discovery" : ", multicast discovery";
+  return t;
 }
 
 }  // namespace densemap::msg

@@ -6,6 +6,9 @@ namespace densemap::msg {
 
 std::string checkTopicNamespace(const std::string& ns) {
   if (ns.empty()) return "";
+  // Cyclone DDS 0.10 refuses a topic name that starts with a digit, and the namespace starts every name.
+  if (std::isdigit(static_cast<unsigned char>(ns.front())))
+    return "namespace '" + ns + "': must not start with a digit (portable DDS topic names do not)";
   bool segment_start = true;
   for (char c : ns) {
     if (c == '/') {

@@ -5,7 +5,7 @@
 #include <variant>
 
 #include "cdr_sample.h"
-#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/wire_types.h"
 #include "densemap/server/dds_edge/wire.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "cdr_sample.h"
-#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/wire_types.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/server/scan_validator.h"
 

@@ -1,6 +1,7 @@
 // libFuzzer target for the per-peer topics (idl/src/peer_topic.cpp): a topic name from discovery
 // (any remote reader's or writer's) names one of our peers or none; an id is accepted only when it can name a
-// topic, and a topic made from an accepted id reads back as that id.
+// topic, a topic made from an accepted id reads back as that id, and its segment is a portable name.
+#include <cctype>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -18,7 +19,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (densemap::msg::checkPeerId(text).empty()) {
     const auto back = densemap::msg::peerOfTopic(base, densemap::msg::peerTopicOf(base, text));
     if (!back || *back != text) std::abort();
-    if (text.find('/') != std::string::npos) std::abort();
+    // The segment is a portable name: letters, digits and '_' only.
+    for (char c : densemap::msg::peerNameOf(text))
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') std::abort();
   }
   return 0;
 }

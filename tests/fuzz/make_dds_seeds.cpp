@@ -6,7 +6,7 @@
 
 #include <fastdds/rtps/common/SerializedPayload.h>
 
-#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/wire_types.h"
 
 namespace {
 template <class PubSubType, class T>

@@ -221,7 +221,8 @@ TEST_F(BadInput, UndecodableDdsSamplesAreRefusedAndCountedTheServerStaysUp) {
   msg::DdsNode node(dds);
   auto* topic = node.topic(
       msg::peerTopicOf(msg::kScanTopic, "hostile"),  // a robot the server has not seen: it makes its reader
-      eprosima::fastdds::dds::TypeSupport(std::make_unique<RawBytesType>("densemap::msg::Scan").release()));
+      eprosima::fastdds::dds::TypeSupport(
+          std::make_unique<RawBytesType>("densemap::msg::Scan_v1").release()));
   auto* writer = node.writer(topic, msg::kScanWriterProfile);
   ASSERT_NE(writer, nullptr);
   const auto deadline = std::chrono::steady_clock::now() + 20s;
@@ -246,6 +247,34 @@ TEST_F(BadInput, UndecodableDdsSamplesAreRefusedAndCountedTheServerStaysUp) {
   accepted_.push_back(scans_[1]);
   expectServedEquals(*h_, *offlineMap<map::GridMap>(accepted_, 0.2));
   EXPECT_EQ(h_->server->statistics().samples_undecodable(), msg::undecodableSamples());
+}
+
+// An endpoint whose topic lies under a per-peer base but names no valid id as densemap writes ids (here a
+// robot id with its '-' unescaped, which Fast DDS takes and Cyclone DDS 0.10 would refuse): ignored, counted,
+// never given a reader; the server goes on.
+TEST_F(BadInput, APeerTopicThatNamesNoValidIdIsIgnoredAndCounted) {
+  start(56);
+  msg::DdsOptions dds;
+  dds.domain = 56;
+  dds.loopback = true;
+  dds.name = "unescaped";
+  msg::DdsNode node(dds);
+  auto* topic = node.topic(std::string(msg::kScanTopic) + "/robot-9",
+                           eprosima::fastdds::dds::TypeSupport(
+                               std::make_unique<RawBytesType>("densemap::msg::Scan_v1").release()));
+  auto* writer = node.writer(topic, msg::kScanWriterProfile);
+  ASSERT_NE(writer, nullptr);
+  // The DDS edge's count (what its statistics message carries as peer_topics_refused).
+  auto refused = [&] { return h_->server->edge.peerTopicsRefused(); };
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (refused() == 0 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(refused(), 1u);
+  std::this_thread::sleep_for(500ms);
+  eprosima::fastdds::dds::PublicationMatchedStatus matched;
+  writer->get_publication_matched_status(matched);
+  EXPECT_EQ(matched.current_count, 0) << "the server made a scan reader for an invalid peer topic";
+  node.remove(writer);
+  EXPECT_EQ(h_->replay({scans_[1]}, "robot-0", 1).applied, 2u);
 }
 
 TEST_F(BadInput, ClearBoxAndResetChangeOnlyWhatTheyAsk) {

@@ -15,8 +15,8 @@
 
 #include "densemap/client/joining_client.h"
 #include "densemap/client/statistics_subscriber.h"
-#include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
+#include "densemap/msg/wire_types.h"
 #include "run_command.h"
 #include "security_keystore.h"
 #include "service_harness.h"
@@ -207,7 +207,7 @@ TEST(Security, ARobotCannotCommandOrQueryAndAClientCannotPublishScans) {
     ADD_FAILURE() << "a robot identity made an admin client";
   } catch (const msg::DdsError& e) {
     // Refused at its first endpoint, the reply reader; the message says what to do.
-    EXPECT_NE(std::string(e.what()).find("may not subscribe to densemap/admin/reply/robot-1"),
+    EXPECT_NE(std::string(e.what()).find("may not subscribe to densemap/admin/reply/robot_h1"),
               std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("needs another role's identity"), std::string::npos) << e.what();
@@ -419,7 +419,7 @@ TEST(Security, TamperedOrForgedPermissionsAreRefused) {
   const fs::path tampered = keys.dir / "robot-tampered";
   fs::copy(keys / "robot-1", tampered);
   std::string p7s = slurp(tampered / "permissions.p7s");
-  const std::string granted = "<topic>densemap/scans/robot-1</topic>";
+  const std::string granted = "<topic>densemap/scans/robot_h1</topic>";
   const auto at = p7s.find(granted);
   ASSERT_NE(at, std::string::npos);
   p7s.replace(at, granted.size(), "<topic>densemap/admin/request</topic>");
@@ -514,14 +514,14 @@ TEST(Security, AfterTheCaIsRotatedOnlyTheReissuedIdentitiesGetIn) {
 // for whole attempts just as a stalled secure join does, so both tools must replace theirs and then get in:
 // densemap-query with a query, densemap-replay with query clients only (no robot to join for them).
 // densemap-query's --timeout (3 s, for each reply) is shorter than the server's delay: in secure mode the
-// wait for the server is --secure-join-wait.
+// wait for the server is --wait.
 TEST(Security, ToolsReplaceAParticipantTheServerHasNotAnswered) {
   Keystore keys;
   const fs::path summary = keys.scratch("replay") / "summary.json";
   const std::string dds = " --domain 224 --loopback --rejoin-after 1.5 --security-dir ";
   auto query = std::async(std::launch::async, [&] {
     return runCommand(std::string(DENSEMAP_QUERY_BINARY) + dds + (keys / "client-1").string() +
-                          " --log-level info --timeout 3 --secure-join-wait 40 --json stats",
+                          " --log-level info --timeout 3 --wait 40 --json stats",
                       Stderr::kCapture);
   });
   auto replay = std::async(std::launch::async, [&] {

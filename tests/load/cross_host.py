@@ -72,7 +72,7 @@ class Run:
                *self.discovery.get("srv", [])]
         return self.spawn("srv", cmd, f"server-{tag}.log")
 
-    def robot(self, host, tag, scans, extra=None, wait_s=20, security=None):
+    def robot(self, host, tag, scans, extra=None, wait_s=60, security=None):
         """A robot on `host`, robot id robot-<host>-0; in secure mode identity robot-<host>, or the flags `security`."""
         ident = self.identity(f"robot-{host}") if security is None else security
         cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, *ident, "--source", self.a.source,
@@ -85,7 +85,7 @@ class Run:
     def query_client(self, seconds):
         cmd = [os.path.join(self.a.build, "client", "densemap-replay"), *self.dds, *self.identity("client-1"),
                "--robots", "0", "--duration", str(seconds), "--query-clients", "1", "--query-points", "1000", "--query-rate",
-               "20", "--summary-json", os.path.join(self.dir, "summary-query.json"), "--wait", "20",
+               "20", "--summary-json", os.path.join(self.dir, "summary-query.json"), "--wait", "60",
                "--log-level", "warn", *self.discovery.get("robot", [])]
         return self.spawn("q", cmd, "query.log")
 
@@ -205,8 +205,7 @@ def check_intruders(a, run, report, failures):
     """Secure mode: from host q, a participant without an identity and a robot of another CA get nothing."""
     plain = run.query("statistics", security=[], timeout_s=6)
     foreign = run.robot("q", "foreign", 1, wait_s=8, extra=[],
-                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-q"),
-                                  "--secure-join-wait", "8"])
+                        security=["--security-dir", os.path.join(a.foreign_keystore, "robot-q")])
     try:
         foreign.wait(timeout=60)
     except subprocess.TimeoutExpired:

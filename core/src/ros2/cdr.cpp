@@ -82,6 +82,14 @@ std::span<const std::uint8_t> CdrReader::byteSequence(const char* field) {
   return view;
 }
 
+void CdrReader::expectEnd(const char* message) {
+  const std::size_t left = pos_ > body_.size() ? 0 : body_.size() - pos_;
+  if (left == 0 || (left < 4 && body_.size() % 4 == 0)) return;
+  throw DecodeError(std::string(message) + ": " + std::to_string(left) +
+                    " bytes follow its last field (at byte " + std::to_string(pos_ + 4) + " of " +
+                    std::to_string(body_.size() + 4) + ")");
+}
+
 CdrWriter::CdrWriter() : bytes_{0x00, 0x01, 0x00, 0x00} {}
 
 void CdrWriter::align(std::size_t n) {

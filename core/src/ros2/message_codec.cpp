@@ -244,6 +244,7 @@ BoundingBox decodeBoundingBoxRequest(std::span<const std::uint8_t> sample) {
   BoundingBox b;
   b.min = readVector3(in, "min");
   b.max = readVector3(in, "max");
+  in.expectEnd("BoundingBoxQuery request");
   return b;
 }
 
@@ -257,6 +258,7 @@ std::vector<std::uint8_t> encodeBoundingBoxRequest(const BoundingBox& b) {
 void decodeEmpty(std::span<const std::uint8_t> sample) {
   CdrReader in(sample);
   in.u8("structure_needs_at_least_one_member");
+  in.expectEnd("empty request");
 }
 
 std::vector<std::uint8_t> encodeEmpty() {

@@ -15,8 +15,8 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
 #include "densemap/msg/dds_options_cli.h"
-#include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
+#include "densemap/msg/wire_types.h"
 #include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/log_throttle.h"
@@ -56,10 +56,16 @@ class DdsEdge::Listener : public fdds::DataReaderListener {
 // What is found before the edge's side exists is passed on once it does.
 class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
  public:
+  /// `peer_bases`: the per-peer topic bases as on the wire (under the namespace).
+  explicit DiscoveryListener(std::vector<std::string> peer_bases) : peer_bases_(std::move(peer_bases)) {}
   void on_publisher_discovery(fdds::DomainParticipant*,
                               eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
-    if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    using Status = eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERY_STATUS;
+    if (info.status != Status::DISCOVERED_WRITER && info.status != Status::REMOVED_WRITER) return;
     std::string topic = info.info.topicName().to_string();
+    if (!namesAPeer(topic)) return;
+    logPeer(topic, info.status == Status::DISCOVERED_WRITER);
+    if (info.status != Status::DISCOVERED_WRITER) return;
     std::lock_guard lock(mutex_);
     if (scans_ == nullptr) {
       if (early_writers_.size() < 4096) early_writers_.push_back(std::move(topic));
@@ -69,8 +75,12 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
   }
   void on_subscriber_discovery(fdds::DomainParticipant*,
                                eprosima::fastrtps::rtps::ReaderDiscoveryInfo&& info) override {
-    if (info.status != eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
+    using Status = eprosima::fastrtps::rtps::ReaderDiscoveryInfo::DISCOVERY_STATUS;
+    if (info.status != Status::DISCOVERED_READER && info.status != Status::REMOVED_READER) return;
     std::string topic = info.info.topicName().to_string();
+    if (!namesAPeer(topic)) return;
+    logPeer(topic, info.status == Status::DISCOVERED_READER);
+    if (info.status != Status::DISCOVERED_READER) return;
     std::lock_guard lock(mutex_);
     if (targets_.empty()) {
       if (early_.size() < 4096) early_.push_back(std::move(topic));
@@ -101,6 +111,7 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
         guid.str(), n);
   }
   std::uint64_t refused() const { return refused_; }
+  std::uint64_t namesRefused() const { return names_refused_; }
 
   void ready(std::vector<ReplyWriters*> targets) {
     std::lock_guard lock(mutex_);
@@ -135,13 +146,62 @@ class DdsEdge::DiscoveryListener : public fdds::DomainParticipantListener {
   std::set<std::string> refused_guids_;  // guarded by mutex_
   std::atomic<std::uint64_t> refused_{0};
   util::LogThrottle log_;
+  const std::vector<std::string> peer_bases_;
+  std::atomic<std::uint64_t> names_refused_{0};
+  util::LogThrottle names_log_;
+
+  /// One line when a robot (its scan writer) or a client (its query or admin reply reader) is first seen
+  /// and one when it goes: per endpoint, never per sample. Its other endpoints (acks, progress) are quiet.
+  void logPeer(const std::string& topic, bool arrived) {
+    const struct {
+      std::size_t base;
+      const char* what;
+      const char* endpoint;
+    } kinds[] = {{0, "robot", "scan writer"},
+                 {3, "client", "query reply reader"},
+                 {4, "client", "admin reply reader"}};
+    for (const auto& k : kinds) {
+      const auto id = msg::peerOfTopic(peer_bases_[k.base], topic);
+      if (!id) continue;
+      if (arrived) {
+        spdlog::info("{} '{}' matched ({} on {})", k.what, *id, k.endpoint, topic);
+      } else {
+        spdlog::info(
+            "{} '{}' left: its {} is gone (closed by the program, or its participant's lease ended: after a "
+            "kill "
+            "-9, a crash or a cut link this line comes only when the lease runs out, 20 s by default)",
+            k.what, *id, k.endpoint);
+      }
+    }
+  }
+
+  /// False (counted, logged) for an endpoint on a per-peer topic whose last segment is no escape of a
+  /// valid id (msg/peer_topic.h): e.g. a client that wrote "robot-0" into the name unescaped. Such a peer
+  /// would never be answered, so it is told in the log rather than left waiting in silence.
+  bool namesAPeer(const std::string& topic) {
+    for (const std::string& base : peer_bases_) {
+      if (!msg::isUnderPeerBase(base, topic) || msg::peerOfTopic(base, topic)) continue;
+      const std::uint64_t n = ++names_refused_;
+      if (names_log_.due()) {
+        spdlog::warn(
+            "DDS endpoint on '{}' ignored: '{}' is not a peer id written as densemap writes ids into topic "
+            "names ('_' -> '__', '-' -> '_h', '.' -> '_d'; ids of 1-63 letters, digits, '_', '.', '-'); {} "
+            "such endpoints so far",
+            topic, topic.substr(base.size() + 1), n);
+      }
+      return false;
+    }
+    return true;
+  }
 };
 
 std::uint64_t DdsEdge::participantsRefused() const { return discovery_->refused(); }
+std::uint64_t DdsEdge::peerTopicsRefused() const { return discovery_->namesRefused(); }
 
 msg::ServerStatistics DdsEdge::statisticsMessage(const ServiceStatistics& s) const {
   msg::ServerStatistics m = toWire(s);
   m.participants_refused(participantsRefused());  // the edge's own count: the service never sees DDS peers
+  m.peer_topics_refused(peerTopicsRefused());
   return m;
 }
 
@@ -174,7 +234,14 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
   try {
     msg::DdsOptions dds = options_.dds;
     dds.name = service_.options().server_id;
-    discovery_ = std::make_unique<DiscoveryListener>();
+    {
+      std::vector<std::string> bases;  // as on the wire (DdsNode::topicName), before the node exists
+      const std::string ns = dds.topic_namespace.empty() ? "" : dds.topic_namespace + "/";
+      for (const char* base : {msg::kScanTopic, msg::kScanAckTopic, msg::kRobotProgressTopic,
+                               msg::kQueryReplyTopic, msg::kAdminReplyTopic})
+        bases.push_back(ns + base);
+      discovery_ = std::make_unique<DiscoveryListener>(std::move(bases));
+    }
     node_ = std::make_unique<msg::DdsNode>(dds, discovery_.get());
     auto* requests = node_->topic(msg::kQueryRequestTopic, msg::typeSupport<msg::QueryRequestPubSubType>());
     auto* admin_requests =

@@ -4,8 +4,8 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
-#include "densemap/msg/densemapPubSubTypes.h"
 #include "densemap/msg/peer_topic.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::server::dds_edge {
 

@@ -2,16 +2,24 @@
 
 #include <pthread.h>
 
+#include <array>
+#include <map>
+
 #include <fastdds/rtps/common/WriteParams.h>
 #include <spdlog/spdlog.h>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
+
+#include "densemap/msg/checked_type.h"
 #include "densemap/msg/raw_cdr_type.h"
 #include "densemap/msg/ros2_qos.h"
+#include "densemap/ros2/discovery_info.h"
 #include "densemap/ros2/message_codec.h"
 #include "densemap/ros2/names.h"
 #include "densemap/ros2/qos.h"
+#include "densemap/ros2/service_framing.h"
 #include "densemap/server/ros2_edge/matched_readers.h"
 #include "densemap/server/ros2_edge/ros2_options.h"
 
@@ -54,7 +62,44 @@ class Ros2Edge::Listener : public fdds::DataReaderListener {
   Ros2Edge& e_;
 };
 
+// The DDS vendor of every remote participant, from RTPS participant discovery, so a service request can be
+// read in its requester's framing. Fast DDS 2.9 gives no matched writer's participant data through the
+// reader (get_matched_publication_data is not supported), but a writer's GUID prefix is its participant's,
+// and discovery comes before any of its samples.
+class Ros2Edge::VendorListener : public fdds::DomainParticipantListener {
+ public:
+  void on_participant_discovery(fdds::DomainParticipant*,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override {
+    using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS;
+    const auto& prefix = info.info.m_guid.guidPrefix;
+    std::lock_guard lock(mutex_);
+    if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
+      vendors_.erase(prefix);
+    } else if (vendors_.size() < kMaxParticipants || vendors_.count(prefix)) {
+      vendors_[prefix] = {info.info.m_VendorId[0], info.info.m_VendorId[1]};
+    }
+  }
+  /// The vendor of the participant whose prefix `writer` has; {0, 0} (unknown) when not discovered.
+  std::array<std::uint8_t, 2> vendorOf(const eprosima::fastrtps::rtps::GUID_t& writer) const {
+    std::lock_guard lock(mutex_);
+    const auto it = vendors_.find(writer.guidPrefix);
+    return it == vendors_.end() ? std::array<std::uint8_t, 2>{0, 0} : it->second;
+  }
+
+ private:
+  static constexpr std::size_t kMaxParticipants = 65536;  // bounded against a flood of fake participants
+  mutable std::mutex mutex_;
+  std::map<eprosima::fastrtps::rtps::GuidPrefix_t, std::array<std::uint8_t, 2>> vendors_;
+};
+
 namespace {
+
+ros2::Guid guidBytes(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  ros2::Guid out{};
+  std::copy(std::begin(guid.guidPrefix.value), std::end(guid.guidPrefix.value), out.begin());
+  std::copy(std::begin(guid.entityId.value), std::end(guid.entityId.value), out.begin() + 12);
+  return out;
+}
 
 /// Takes every sample of `reader`; calls f(bytes, info) for each with data.
 template <class F>
@@ -88,10 +133,11 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
   };
   listener_ = std::make_unique<Listener>(*this);
   msg::DdsOptions d = dds;
-  d.name = node;           // what DDS tools show; ROS 2 tools list nodes from ros_discovery_info (not sent)
+  d.name = node;           // what DDS tools show; ROS 2 tools list nodes from ros_discovery_info
   d.topic_namespace = "";  // ROS 2 names are resolved by ROS 2's rules, not densemap's namespace
   if (!options_.security_dir.empty()) d.security_dir = options_.security_dir;
-  node_ = std::make_unique<msg::DdsNode>(d);
+  vendors_ = std::make_unique<VendorListener>();
+  node_ = std::make_unique<msg::DdsNode>(d, vendors_.get());
   auto topic = [&](const std::string& ros_name, const char* ros_type) {
     return node_->topic(ros2::topicOnDds(resolve(ros_name)), msg::rawCdrType(ros2::typeOnDds(ros_type)));
   };
@@ -114,13 +160,17 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
     pose_reader_ = node_->reader(topic(options_.frames.pose_topic, pose_type_.c_str()),
                                  msg::readerQos(ros2::Qos::sensorData()), nullptr);
   }
-  const ros2::Qos map_qos = options_.latch ? ros2::Qos::latched() : ros2::Qos{true, false, false, 5};
-  binary_writer_ = node_->writer(topic("octomap_binary", ros2::kOctomapType), msg::writerQos(map_qos));
-  full_writer_ = node_->writer(topic("octomap_full", ros2::kOctomapType), msg::writerQos(map_qos));
-  projected_writer_ =
-      node_->writer(topic("projected_map", ros2::kOccupancyGridType), msg::writerQos(map_qos));
-  centres_writer_ =
-      node_->writer(topic("octomap_point_cloud_centers", ros2::kPointCloud2Type), msg::writerQos(map_qos));
+  const ros2::Qos map_ros_qos = options_.latch ? ros2::Qos::latched() : ros2::Qos{true, false, false, 5};
+  eprosima::fastdds::dds::DataWriterQos map_qos = msg::writerQos(map_ros_qos);
+  // Written from the edge's own publishing thread, so synchronous costs the scans nothing: with Fast DDS
+  // 2.9's asynchronous writers a Cyclone DDS subscriber (rmw_cyclonedds) now and then never received a
+  // cycle's last map, in CycloneDds.ARos2NodeOnCycloneIsMappedAndReadsEveryOutputAsDensemapsOwn under load
+  // (2 failures in 3 runs; 0 in 4 synchronous).
+  map_qos.publish_mode().kind = fdds::SYNCHRONOUS_PUBLISH_MODE;
+  binary_writer_ = node_->writer(topic("octomap_binary", ros2::kOctomapType), map_qos);
+  full_writer_ = node_->writer(topic("octomap_full", ros2::kOctomapType), map_qos);
+  projected_writer_ = node_->writer(topic("projected_map", ros2::kOccupancyGridType), map_qos);
+  centres_writer_ = node_->writer(topic("octomap_point_cloud_centers", ros2::kPointCloud2Type), map_qos);
 
   const struct {
     Service::Kind kind;
@@ -142,6 +192,7 @@ Ros2Edge::Ros2Edge(MapService& service, const Ros2EdgeOptions& options, const ms
     svc->replies = node_->writer(rr, msg::writerQos(ros2::Qos::reliableDefault()), &svc->reply_readers);
     services_.push_back(std::move(svc));
   }
+  publishDiscoveryInfo();
   // Listeners last: every reader is known when the first callback comes.
   for (auto* r : {cloud_reader_, tf_reader_, tf_static_reader_, pose_reader_})
     if (r) r->set_listener(listener_.get());
@@ -213,6 +264,16 @@ std::size_t matched(fdds::DataReader* r) {
 
 std::size_t Ros2Edge::matchedCloudPublishers() const { return matched(cloud_reader_); }
 std::size_t Ros2Edge::matchedPosePublishers() const { return matched(tf_reader_) + matched(pose_reader_); }
+
+std::size_t Ros2Edge::matchedMapSubscribers() const {
+  std::size_t fewest = std::numeric_limits<std::size_t>::max();
+  for (fdds::DataWriter* w : {binary_writer_, full_writer_, projected_writer_, centres_writer_}) {
+    fdds::PublicationMatchedStatus s;
+    w->get_publication_matched_status(s);
+    fewest = std::min(fewest, static_cast<std::size_t>(s.current_count));
+  }
+  return fewest;
+}
 
 void Ros2Edge::takeTf(fdds::DataReader* reader, bool is_static) {
   std::uint64_t refused = 0, undecodable = 0;
@@ -399,8 +460,41 @@ void Ros2Edge::publishLoop() {
   }
 }
 
+void Ros2Edge::publishDiscoveryInfo() {
+  ros2::NodeEntities entities;
+  entities.node_name = options_.node_name;
+  for (auto* r : {cloud_reader_, tf_reader_, tf_static_reader_, pose_reader_})
+    if (r) entities.readers.push_back(guidBytes(r->guid()));
+  for (auto* w : {binary_writer_, full_writer_, projected_writer_, centres_writer_})
+    entities.writers.push_back(guidBytes(w->guid()));
+  for (const auto& svc : services_) {
+    entities.readers.push_back(guidBytes(svc->requests->guid()));
+    entities.writers.push_back(guidBytes(svc->replies->guid()));
+  }
+  ros2::ParticipantEntities info;
+  info.participant = guidBytes(node_->participant().guid());
+  info.nodes.push_back(std::move(entities));
+  const ros2::RosDistribution distribution = ros2::parseRosDistribution(options_.ros_distribution);
+  auto* topic = node_->topic(ros2::kDiscoveryInfoTopic, msg::rawCdrType(ros2::kDiscoveryInfoType));
+  discovery_info_writer_ = node_->writer(topic, msg::writerQos(ros2::Qos::tfStatic()));
+  msg::RawSample sample{ros2::encode(info, distribution)};
+  if (!discovery_info_writer_->write(&sample)) spdlog::warn("could not publish ros_discovery_info");
+}
+
 void Ros2Edge::handle(Service& s) {
-  takeAll(s.requests, [&](const std::vector<std::uint8_t>& bytes, const fdds::SampleInfo& info) {
+  takeAll(s.requests, [&](const std::vector<std::uint8_t>& sample, const fdds::SampleInfo& info) {
+    // rmw_cyclonedds frames the request with a header in the payload; every other requester is read as
+    // rmw_fastrtps sends (ros2/service_framing.h).
+    const ros2::ServiceFraming framing =
+        ros2::serviceFramingOfVendor(vendors_->vendorOf(info.sample_identity.writer_guid()));
+    ros2::FramedRequest request;
+    try {
+      request = ros2::unframeRequest(sample, framing);
+    } catch (const ros2::DecodeError& e) {
+      refuseRequest(s, framing, e.what());
+      return;
+    }
+    const std::vector<std::uint8_t>& bytes = request.message;
     // rmw_fastrtps: the reply goes to the client's reply reader (related_sample_identity's writer guid,
     // when the client sent one), carrying the request's sequence number.
     eprosima::fastrtps::rtps::SampleIdentity identity = info.sample_identity;
@@ -448,15 +542,14 @@ void Ros2Edge::handle(Service& s) {
         break;
       }
     }
+    if (!ok) {
+      refuseRequest(s, framing, why);
+      return;
+    }
     {
       std::lock_guard lock(mutex_);
       ++counters_.service_requests;
-      if (!ok) ++counters_.service_refused;
-    }
-    if (!ok) {
-      // ROS 2 services have no error reply: the client times out, as it would with octomap_server.
-      spdlog::warn("{}: request refused: {}", s.name, why);
-      return;
+      if (framing == ros2::ServiceFraming::kRequestHeader) ++counters_.service_requests_header;
     }
     // Only a client that named its reply reader can be waited for (otherwise the GUID is its writer's).
     if (names_its_reader && !s.reply_readers.waitFor(identity.writer_guid(), kReplyReaderWait)) {
@@ -469,9 +562,21 @@ void Ros2Edge::handle(Service& s) {
     }
     eprosima::fastrtps::rtps::WriteParams params;
     params.related_sample_identity(identity);
-    msg::RawSample out{std::move(reply)};
+    msg::RawSample out{ros2::frameReply(request, std::move(reply))};
     if (!s.replies->write(&out, params)) spdlog::warn("{}: could not send the reply", s.name);
   });
+}
+
+void Ros2Edge::refuseRequest(const Service& s, ros2::ServiceFraming framing, const std::string& why) {
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.service_requests;
+    ++counters_.service_refused;
+  }
+  msg::countUndecodableSample();  // in the server's samples_undecodable too
+  // ROS 2 services have no error reply: the client times out, as it would with octomap_server.
+  spdlog::warn("{}: request refused, nothing done: {} (read in the {} framing)", s.name, why,
+               ros2::toString(framing));
 }
 
 void Ros2Edge::serviceLoop() {

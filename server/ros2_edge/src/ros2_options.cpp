@@ -35,6 +35,10 @@ cli::OptionTable ros2Options(Ros2EdgeOptions& o) {
   t.add("pointcloud-max-z", o.pointcloud_max_z,
         "points above this height in the fixed frame are not inserted (m)")
       .range(-1e6, 1e6);
+  t.add("ros2-distribution", o.ros_distribution,
+        "the ROS 2 distribution whose ros_discovery_info layout to publish, so `ros2 node list` shows the "
+        "node (its Gid is 24 bytes in Humble and Iron, 16 in Jazzy)")
+      .oneOf({"humble", "jazzy"});
   t.add("params-file", o.params_file,
         "octomap_server parameters YAML (ros__parameters): its values replace these defaults, flags win")
       .exampleOnly();

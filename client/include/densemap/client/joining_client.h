@@ -28,8 +28,10 @@ class JoiningClient {
 
   /// Waits up to `timeout` for the server to match the client; each `attempt` that passes unmatched
   /// replaces the participant and the client (joinServer). Use JoinOptions::attempt for `attempt`.
-  ServerJoin join(std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
-    return joinServer([this]() -> Client& { return client(); }, [this] { remake(); }, timeout, attempt);
+  [[nodiscard]] ServerJoin join(std::chrono::milliseconds timeout, std::chrono::milliseconds attempt,
+                                const JoinContext* context = nullptr) {
+    return joinServer([this]() -> Client& { return client(); }, [this] { remake(); }, timeout, attempt,
+                      context);
   }
 
   Client& client() {

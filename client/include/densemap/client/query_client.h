@@ -6,8 +6,7 @@
 #include <string>
 
 #include "densemap/client/request_client.h"
-#include "densemap/msg/densemap.h"
-#include "densemap/msg/densemapPubSubTypes.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::client {
 

@@ -24,6 +24,8 @@ struct Ros2PlayOptions {
   std::string cloud_topic = "/cloud_in";  ///< other sources: where the clouds go
   std::string fixed_frame = "map";
   std::string sensor_frame = "lidar";
+  /// Where it publishes, in words (client::joinContext's `where`), for what it says while it waits.
+  std::string where;
 };
 
 struct Ros2PlayResult {
@@ -31,11 +33,15 @@ struct Ros2PlayResult {
   std::size_t clouds = 0;
   double seconds = 0;  ///< from the first message to the end (delivery waits included)
   std::chrono::steady_clock::time_point first_sent{};
+  /// Set when no subscriber matched this cloud topic within wait_s: nothing was played.
+  std::string unread_topic;
 };
 
-/// Plays every message of `bag` (or only the first `max_clouds` clouds and what comes before the next).
+/// Plays every message of `bag` once a subscriber reads its clouds (unread_topic when none did within
+/// wait_s).
 Ros2PlayResult playBag(const ros2::BagReader& bag, msg::DdsNode& node, const Ros2PlayOptions& options);
-/// Publishes `scans` as PointCloud2 (sensor frame) with a /tf transform fixed <- sensor at each stamp.
+/// Publishes `scans` as PointCloud2 (sensor frame) with a /tf transform fixed <- sensor at each stamp, once a
+/// subscriber reads the clouds (unread_topic when none did within wait_s).
 Ros2PlayResult playScans(const std::vector<io::Scan>& scans, msg::DdsNode& node,
                          const Ros2PlayOptions& options);
 

@@ -19,7 +19,7 @@
 #include "densemap/client/statistics_subscriber.h"
 #include "densemap/io/scan.h"
 #include "densemap/msg/dds_node.h"
-#include "densemap/msg/densemap.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::client {
 

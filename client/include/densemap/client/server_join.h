@@ -10,6 +10,7 @@
 #include <string>
 
 #include "densemap/cli/option_table.h"
+#include "densemap/msg/dds_node.h"
 
 namespace densemap::client {
 
@@ -17,6 +18,23 @@ namespace densemap::client {
 inline constexpr const char* kUnauthenticatedHint =
     " (secure: a server that did not authenticate this identity matches nothing; its log names each "
     "refused participant)";
+
+/// What a program waits for, told to the user within 2 s and repeated every 10 s while it waits, and what
+/// the error names when the wait ends with no server: a mistyped domain, --loopback on one side only, a
+/// namespace or a refused identity must never look like a hang.
+struct JoinContext {
+  std::string what;   ///< e.g. "a densemap-server reading densemap/scans/robot_h0"
+  std::string where;  ///< e.g. "DDS domain 0, no namespace, shared memory + UDP on every interface, plain"
+  bool secure = false;
+};
+
+/// The context of a client on `node` (made from `dds`) waiting for `what`.
+[[nodiscard]] JoinContext joinContext(const msg::DdsOptions& dds, const msg::DdsNode& node, std::string what);
+
+/// The error when no server matched within `waited`: what was awaited, where, the client's last state, and
+/// the likely causes.
+[[nodiscard]] std::string noServerMessage(const JoinContext& context, std::chrono::milliseconds waited,
+                                          const std::string& state);
 
 struct ServerJoin {
   bool joined = false;
@@ -33,34 +51,35 @@ struct JoinTarget {
 /// Waits until the server answers `target()` (its wait_for_server), at most `timeout` in all. Each time
 /// `attempt` passes unmatched, `rejoin()` replaces the participant and its client (both made anew by the
 /// caller) and the wait goes on with the new one. `attempt` >= `timeout`: never replaced.
-ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
-                          std::chrono::milliseconds timeout, std::chrono::milliseconds attempt);
+/// With a `context`, it logs what it waits for after 1 s unmatched and a progress line every 10 s.
+[[nodiscard]] ServerJoin joinServerWith(const std::function<JoinTarget()>& target,
+                                        const std::function<void()>& rejoin,
+                                        std::chrono::milliseconds timeout, std::chrono::milliseconds attempt,
+                                        const JoinContext* context = nullptr);
 
 /// The same for `client()` returning a ScanPublisher, QueryClient or AdminClient (anything with
 /// waitForServer(milliseconds) and joinState()); called again after each rejoin.
 template <class GetClient>
-ServerJoin joinServer(GetClient&& client, const std::function<void()>& rejoin,
-                      std::chrono::milliseconds timeout, std::chrono::milliseconds attempt) {
+[[nodiscard]] ServerJoin joinServer(GetClient&& client, const std::function<void()>& rejoin,
+                                    std::chrono::milliseconds timeout, std::chrono::milliseconds attempt,
+                                    const JoinContext* context = nullptr) {
   return joinServerWith(
       [&client] {
         auto& c = client();
         return JoinTarget{[&c](std::chrono::milliseconds t) { return c.waitForServer(t); },
                           [&c] { return c.joinState(); }};
       },
-      rejoin, timeout, attempt);
+      rejoin, timeout, attempt, context);
 }
 
-/// `--rejoin-after` and `--secure-join-wait`, shared by the programs that join a server.
+/// `--wait` and `--rejoin-after`, shared by every program that joins a server (one meaning everywhere).
 struct JoinOptions {
+  double wait_s = 60.0;
   double rejoin_after_s = 20.0;
-  double secure_join_wait_s = 60.0;
-  /// The timeout for joinServer: in secure mode the longer of `program_wait` (the program's own wait for
-  /// the server) and secure_join_wait_s, so that a stalled join has room for new participants; else
-  /// `program_wait`.
-  std::chrono::milliseconds wait(bool secure, std::chrono::milliseconds program_wait) const;
-  /// The attempt for joinServer: rejoin_after_s in secure mode, else `timeout` (a plain participant has no
-  /// handshake to stall, so it is never replaced).
-  std::chrono::milliseconds attempt(bool secure, std::chrono::milliseconds timeout) const;
+  [[nodiscard]] std::chrono::milliseconds wait() const;
+  /// The attempt for joinServer: rejoin_after_s in secure mode, else the whole wait (a plain participant
+  /// has no handshake to stall, so it is never replaced).
+  [[nodiscard]] std::chrono::milliseconds attempt(bool secure) const;
 };
 cli::OptionTable joinOptions(JoinOptions& options);
 

@@ -10,7 +10,7 @@
 #include <optional>
 
 #include "densemap/msg/dds_node.h"
-#include "densemap/msg/densemap.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::client {
 

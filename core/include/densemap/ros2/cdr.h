@@ -42,6 +42,11 @@ class CdrReader {
   std::uint32_t sequenceLength(const char* field, std::size_t min_element_bytes);
   /// A sequence<uint8>: a view into the sample (valid while the bytes are).
   std::span<const std::uint8_t> byteSequence(const char* field);
+  /// Throws DecodeError unless the message ends here: nothing may follow but the padding that rounds the
+  /// sample up to a multiple of 4 bytes (which Cyclone DDS adds and Fast DDS does not). A sample of the
+  /// right type with bytes to spare is another layout (e.g. a request header this reader was not told of),
+  /// never read as if they were not there.
+  void expectEnd(const char* message);
 
  private:
   void align(std::size_t n);

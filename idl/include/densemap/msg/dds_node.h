@@ -150,6 +150,10 @@ eprosima::fastdds::dds::TypeSupport typeSupport() {
 /// peer. Matching is not symmetric, so the peer may not see us yet (the clients' waitForServer handles that).
 bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastdds::dds::DataReader& reader);
 
+/// The transport `options` choose, in words (for what a program says it waits on): e.g. "shared memory +
+/// UDP on 127.0.0.1 (--loopback)".
+[[nodiscard]] std::string describeTransport(const DdsOptions& options);
+
 /// System clock in nanoseconds (the clock scan stamps and latencies use; hosts are assumed NTP-synced).
 std::int64_t nowNs();
 

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "densemap/msg/dds_node.h"
-#include "densemap/msg/densemap.h"
+#include "densemap/msg/wire_types.h"
 #include "densemap/server/dds_edge/reply_writers.h"
 #include "densemap/server/dds_edge/scan_readers.h"
 #include "densemap/server/map_service.h"
@@ -80,6 +80,8 @@ class DdsEdge {
   bool refused() const { return refused_; }
   /// Remote participants refused by DDS-Security so far (failed authentication or permissions).
   std::uint64_t participantsRefused() const;
+  /// Endpoints on per-peer topics whose name is no escape of a valid id (msg/peer_topic.h), ignored.
+  std::uint64_t peerTopicsRefused() const;
   /// Other servers seen on the same topics so far.
   std::size_t otherServersSeen() const {
     std::lock_guard lock(peers_mutex_);

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "densemap/msg/dds_node.h"
-#include "densemap/msg/densemap.h"
+#include "densemap/msg/wire_types.h"
 
 namespace densemap::server::dds_edge {
 

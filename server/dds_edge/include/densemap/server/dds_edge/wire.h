@@ -6,7 +6,7 @@
 #include <string>
 #include <variant>
 
-#include "densemap/msg/densemap.h"
+#include "densemap/msg/wire_types.h"
 #include "densemap/server/command.h"
 #include "densemap/server/durability/robot_progress.h"
 #include "densemap/server/pipeline.h"

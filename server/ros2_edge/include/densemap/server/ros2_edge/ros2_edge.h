@@ -2,7 +2,9 @@
 // ROS installation. In: sensor_msgs/PointCloud2 on the cloud topic, placed through /tf and /tf_static (or
 // a pose topic). Out: octomap_msgs/Octomap (octomap_binary, octomap_full), nav_msgs/OccupancyGrid
 // (projected_map) and the occupied centres (octomap_point_cloud_centers). Services: ~/clear_bbox,
-// ~/reset, octomap_binary, octomap_full. Names and parameters are octomap_server's, so it is a drop-in.
+// ~/reset, octomap_binary, octomap_full, in rmw_fastrtps' and rmw_cyclonedds' framing alike (told apart
+// by the requester's DDS vendor, ros2/service_framing.h). The node is announced on ros_discovery_info, so
+// ROS 2's tools list it. Names and parameters are octomap_server's, so it is a drop-in.
 // Its threads: DDS's own (TF is added there), cloud intake (waits for TF like tf2's message filter),
 // map publishing, services.
 #pragma once
@@ -19,6 +21,7 @@
 
 #include "densemap/msg/dds_node.h"
 #include "densemap/ros2/sensor_pose.h"
+#include "densemap/ros2/service_framing.h"
 #include "densemap/server/latency_window.h"
 #include "densemap/server/map_service.h"
 #include "densemap/server/ros2_edge/ros2_wire.h"
@@ -46,6 +49,9 @@ struct Ros2EdgeOptions {
   double occupancy_min_z = -1e6, occupancy_max_z = 1e6;    ///< projected_map's height band
   double pointcloud_min_z = -1e6, pointcloud_max_z = 1e6;  ///< points outside are not inserted
   std::string params_file;  ///< an octomap_server parameters YAML (octomap_params.h)
+  /// The ROS 2 distribution whose ros_discovery_info layout the edge publishes (Gid of 24 bytes in Humble
+  /// and Iron, 16 in Jazzy, under one type name): "humble" or "jazzy".
+  std::string ros_distribution = "humble";
 };
 
 /// What the edge did with what it received (besides the service's own per-robot counters).
@@ -58,8 +64,9 @@ struct Ros2Counters {
   std::uint64_t tf_refused = 0;            ///< transforms refused (NaN, bad quaternion, loop, ...)
   std::uint64_t tf_undecodable = 0;        ///< TF / pose samples that did not decode
   std::uint64_t service_requests = 0;
-  std::uint64_t service_refused = 0;    ///< undecodable requests
-  std::uint64_t replies_unmatched = 0;  ///< replies sent before the client's reader was matched
+  std::uint64_t service_requests_header = 0;  ///< in rmw_cyclonedds' framing (a header in the payload)
+  std::uint64_t service_refused = 0;          ///< requests that fit neither framing: never executed
+  std::uint64_t replies_unmatched = 0;        ///< replies sent before the client's reader was matched
   std::uint64_t maps_published = 0;
   LatencySummary tf_wait_ms;  ///< from arrival to the transform, per submitted cloud
 };
@@ -80,9 +87,13 @@ class Ros2Edge {
   /// symmetric: a publisher may see the edge before the edge sees it, and what it sends until then is lost.
   std::size_t matchedCloudPublishers() const;
   std::size_t matchedPosePublishers() const;
+  /// The fewest subscribers any of the four map topics has matched (a volatile subscriber gets only the
+  /// publications after its match, which the edge sees a moment after the subscriber does).
+  std::size_t matchedMapSubscribers() const;
 
  private:
   class Listener;
+  class VendorListener;
   struct Pending {
     ReceivedCloud cloud;
     std::chrono::steady_clock::time_point arrived;
@@ -99,12 +110,16 @@ class Ros2Edge {
   void publishMaps(bool force);
   bool tryPlace(Pending& p, std::string& why);
   void handle(Service& s);
+  void publishDiscoveryInfo();
+  void refuseRequest(const Service& s, ros2::ServiceFraming framing, const std::string& why);
 
   MapService& service_;
   Ros2EdgeOptions options_;
   std::string pose_type_;
   std::unique_ptr<Listener> listener_;
+  std::unique_ptr<VendorListener> vendors_;  // before node_: the node holds it as its participant listener
   std::unique_ptr<msg::DdsNode> node_;
+  eprosima::fastdds::dds::DataWriter* discovery_info_writer_ = nullptr;
   eprosima::fastdds::dds::DataReader* cloud_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* tf_reader_ = nullptr;
   eprosima::fastdds::dds::DataReader* tf_static_reader_ = nullptr;
