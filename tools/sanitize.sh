@@ -13,7 +13,7 @@ tests=(test_pcd_file test_source_validation test_sources test_map_file test_maps
        test_map_service test_pipeline test_wire test_ros2_point_cloud test_tf_buffer test_ros2_bags
        test_ros2_names test_map_projection test_octomap_params test_journal test_restart test_compact_cells
        test_decay test_map_window test_block_store test_service_window test_iln_weight_head test_changed_cells
-       test_openmp_idle_spin test_octree_batch_update)
+       test_openmp_idle_spin test_octree_batch_update test_topic_names)
 # -O1 -g1: what the sanitizers' own documentation suggests for speed with usable reports (line tables only:
 # reports keep file:line); it builds much faster than -O2 -g, the longest step of CI. A unity build (each
 # target's sources compiled eight at a time, so the shared headers are parsed once per batch) cuts the build

@@ -205,15 +205,25 @@ int main(int argc, char** argv) {
       auto* reader = node->reader(topic, msg::progressReaderQos(), nullptr);
       msg::RobotProgress p;
       eprosima::fastdds::dds::SampleInfo info;
-      const auto deadline = std::chrono::steady_clock::now() + timeout;
-      bool got = false;
-      while (!got && std::chrono::steady_clock::now() < deadline) {
-        got = reader->take_next_sample(&p, &info) == ReturnCode_t::RETCODE_OK && info.valid_data;
-        if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      }
-      if (!got)
-        throw std::runtime_error("no robot progress from a densemap-server on DDS domain " +
-                                 std::to_string(dds.domain) + " within " + std::to_string(timeout_s) + " s");
+      const client::JoinContext context = client::joinContext(
+          dds, *node, "a densemap-server's progress on " + node->topicName(msg::kRobotProgressTopic));
+      const client::ServerJoin got = client::joinServerWith(
+          [&] {
+            return client::JoinTarget{
+                [&](std::chrono::milliseconds t) {
+                  const auto until = std::chrono::steady_clock::now() + t;
+                  for (;;) {
+                    if (reader->take_next_sample(&p, &info) == ReturnCode_t::RETCODE_OK && info.valid_data)
+                      return true;
+                    if (std::chrono::steady_clock::now() >= until) return false;
+                    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                  }
+                },
+                [] { return std::string("no progress message yet"); }};
+          },
+          [] {}, join_options.wait(), join_options.wait(), &context);
+      if (!got.joined)
+        throw std::runtime_error(client::noServerMessage(context, join_options.wait(), got.state));
       json robots = json::array();
       for (const auto& r : p.robots()) {
         json iv = json::array();
@@ -247,12 +257,20 @@ int main(int argc, char** argv) {
     if (*server_stats) {
       // Statistics are published, not asked for: no request-reply, so it also works while queries queue.
       client::StatisticsSubscriber sub(*node);
-      const auto s = sub.waitForNext(timeout);
-      if (!s) {
-        throw std::runtime_error("no densemap-server statistics on DDS domain " + std::to_string(dds.domain) +
-                                 " within " + std::to_string(timeout_s) +
-                                 " s; is a server running there (with --statistics-period > 0)?");
-      }
+      std::optional<msg::ServerStatistics> s;
+      const client::JoinContext context =
+          client::joinContext(dds, *node,
+                              "a densemap-server's statistics on " + node->topicName(msg::kStatisticsTopic) +
+                                  " (servers with --statistics-period 0 publish none)");
+      const client::ServerJoin got = client::joinServerWith(
+          [&] {
+            return client::JoinTarget{
+                [&](std::chrono::milliseconds t) { return (s = sub.waitForNext(t)).has_value(); },
+                [] { return std::string("no statistics message yet"); }};
+          },
+          [] {}, join_options.wait(), join_options.wait(), &context);
+      if (!got.joined)
+        throw std::runtime_error(client::noServerMessage(context, join_options.wait(), got.state));
       const json out = serverStatisticsJson(*s);
       if (as_json) {
         std::printf("%s\n", out.dump().c_str());

@@ -42,7 +42,7 @@ bool waitForReader(fdds::DataWriter* w, const Ros2PlayOptions& options) {
       return true;
     }
     if (Clock::now() >= report) {
-      spdlog::info("{} for a subscriber to {} ({:.0f} s of {:g} s) on {}",
+      spdlog::warn("{} for a subscriber to {} ({:.0f} s of {:g} s) on {}",
                    report == start + std::chrono::seconds(1) ? "waiting" : "still waiting",
                    w->get_topic()->get_name(), std::chrono::duration<double>(Clock::now() - start).count(),
                    options.wait_s, options.where);

@@ -66,10 +66,11 @@ ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::
     out.state = t.state();
     if (Clock::now() >= give_up) return out;
     if (context && Clock::now() >= next_report) {
+      // Warnings, so a tool that logs only warnings by default (densemap-query) says it too.
       if (next_report == start + kFirstReport) {
-        spdlog::info("waiting up to {:g} s for {} on {}", seconds(timeout), context->what, context->where);
+        spdlog::warn("waiting up to {:g} s for {} on {}", seconds(timeout), context->what, context->where);
       } else {
-        spdlog::info("still waiting for the server ({:.0f} s of {:g} s): {}", seconds(Clock::now() - start),
+        spdlog::warn("still waiting for the server ({:.0f} s of {:g} s): {}", seconds(Clock::now() - start),
                      seconds(timeout), out.state);
       }
       next_report = Clock::now() + kReportEvery;

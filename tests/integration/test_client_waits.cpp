@@ -53,6 +53,7 @@ TEST(ClientWaits, AReplayWithNoServerSaysWhatItWaitsForAndEndsWithTheLikelyCause
   // Said within 2 s of the wait starting (the source line comes just before it).
   const long source = logTimeMs(r.output, "] [info] source:");
   const long waiting = logTimeMs(r.output, "waiting up to 3 s for a densemap-server");
+  EXPECT_NE(r.output.find("] [warning] waiting up to 3 s"), std::string::npos) << r.output;
   ASSERT_GE(source, 0) << r.output;
   ASSERT_GE(waiting, 0) << r.output;
   EXPECT_LE(waiting - source, 2000) << r.output;
@@ -67,11 +68,13 @@ TEST(ClientWaits, AReplayToAServerOnAnotherDomainEndsTheSameWay) {
 
 TEST(ClientWaits, AQueryWithNoServerEndsWithTheLikelyCauses) {
   const CommandResult r = runCommand(
-      std::string(DENSEMAP_QUERY_BINARY) + " --domain 54 --loopback --wait 3 --log-level info stats",
-      Stderr::kCapture);
+      std::string(DENSEMAP_QUERY_BINARY) + " --domain 54 --loopback --wait 3 stats", Stderr::kCapture);
   EXPECT_NE(r.exitCode(), 0) << r.output;
   EXPECT_NE(r.output.find("no densemap-server matched within 3 s"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("densemap/query/request"), std::string::npos) << r.output;
+  // Said at its default log level (warnings) too, before the wait ends.
+  EXPECT_NE(r.output.find("waiting up to 3 s for a densemap-server answering"), std::string::npos)
+      << r.output;
   EXPECT_NE(r.output.find("Likely causes"), std::string::npos) << r.output;
 }
 

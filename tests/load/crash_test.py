@@ -126,10 +126,10 @@ def main():
             e = json.loads(line)
             if e.get("event") == "ack" and e.get("durable"):
                 acked.add(e["seq"])
-    stats = json.loads(subprocess.run(inns([query_bin, *dds, "--json", "--timeout", "20", "statistics"]), capture_output=True,
+    stats = json.loads(subprocess.run(inns([query_bin, *dds, "--json", "--wait", "20", "statistics"]), capture_output=True,
                                       text=True, check=True).stdout)
     robot = next((r for r in stats["robots"] if r["robot"] == "robot-0"), None)
-    progress = json.loads(subprocess.run(inns([query_bin, *dds, "--json", "--timeout", "20", "progress"]), capture_output=True,
+    progress = json.loads(subprocess.run(inns([query_bin, *dds, "--json", "--wait", "20", "progress"]), capture_output=True,
                                          text=True, check=True).stdout)
     held = next((r for r in progress["robots"] if r["robot"] == "robot-0"), {"intervals": [], "durable_scans": 0})
     saved = subprocess.run(inns([query_bin, *dds, "--timeout", "60", "save", "crash.ot"]), capture_output=True, text=True)

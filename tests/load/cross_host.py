@@ -100,7 +100,7 @@ class Run:
         operator in secure mode (or with `security`, the flags of another identity; [] for none)."""
         sec = self.identity("operator") if security is None else security
         cmd = ["ip", "netns", "exec", self.net.ns("q"), os.path.join(self.a.build, "client", "densemap-query"),
-               *self.dds, *sec, *self.discovery.get("robot", []), "--timeout", str(timeout_s), "--json", what]
+               *self.dds, *sec, *self.discovery.get("robot", []), "--wait", str(timeout_s), "--json", what]
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             return None
