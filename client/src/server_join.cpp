@@ -8,11 +8,11 @@
 namespace densemap::client {
 
 namespace {
-using Clock = std::chrono::steady_clock;
+using JoinClock = std::chrono::steady_clock;
 /// The first word within 2 s of starting to wait, then one line every 10 s.
 constexpr std::chrono::milliseconds kFirstReport{1000}, kReportEvery{10000};
 
-double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+double secondsOf(JoinClock::duration d) { return std::chrono::duration<double>(d).count(); }
 }  // namespace
 
 JoinContext joinContext(const msg::DdsOptions& dds, const msg::DdsNode& node, std::string what) {
@@ -47,42 +47,42 @@ std::string noServerMessage(const JoinContext& context, std::chrono::millisecond
 ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
                           std::chrono::milliseconds timeout, std::chrono::milliseconds attempt,
                           const JoinContext* context) {
-  const auto start = Clock::now();
+  const auto start = JoinClock::now();
   const auto give_up = start + timeout;
   auto next_report = start + kFirstReport;
   auto attempt_ends = start + attempt;
   ServerJoin out;
   JoinTarget t = target();
   for (;;) {
-    const auto now = Clock::now();
+    const auto now = JoinClock::now();
     const auto until = std::min({give_up, attempt_ends, context ? next_report : give_up});
     if (t.wait_for_server(std::max(std::chrono::milliseconds(0),
                                    std::chrono::duration_cast<std::chrono::milliseconds>(until - now)))) {
       out.joined = true;
-      if (context && Clock::now() > start + kFirstReport)
-        spdlog::info("matched the server after {:.1f} s", seconds(Clock::now() - start));
+      if (context && JoinClock::now() > start + kFirstReport)
+        spdlog::info("matched the server after {:.1f} s", secondsOf(JoinClock::now() - start));
       return out;
     }
     out.state = t.state();
-    if (Clock::now() >= give_up) return out;
-    if (context && Clock::now() >= next_report) {
+    if (JoinClock::now() >= give_up) return out;
+    if (context && JoinClock::now() >= next_report) {
       // Warnings, so a tool that logs only warnings by default (densemap-query) says it too.
       if (next_report == start + kFirstReport) {
-        spdlog::warn("waiting up to {:g} s for {} on {}", seconds(timeout), context->what, context->where);
+        spdlog::warn("waiting up to {:g} s for {} on {}", secondsOf(timeout), context->what, context->where);
       } else {
-        spdlog::warn("still waiting for the server ({:.0f} s of {:g} s): {}", seconds(Clock::now() - start),
-                     seconds(timeout), out.state);
+        spdlog::warn("still waiting for the server ({:.0f} s of {:g} s): {}", secondsOf(JoinClock::now() - start),
+                     secondsOf(timeout), out.state);
       }
-      next_report = Clock::now() + kReportEvery;
+      next_report = JoinClock::now() + kReportEvery;
     }
-    if (Clock::now() >= attempt_ends) {
+    if (JoinClock::now() >= attempt_ends) {
       spdlog::warn(
           "the server has not matched this participant within {:.1f} s ({}): joining again with a new one",
-          seconds(attempt), out.state);
+          secondsOf(attempt), out.state);
       rejoin();
       ++out.rejoins;
       t = target();
-      attempt_ends = Clock::now() + attempt;
+      attempt_ends = JoinClock::now() + attempt;
     }
   }
 }
