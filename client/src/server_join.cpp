@@ -1,8 +1,11 @@
 #include "densemap/client/server_join.h"
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 namespace densemap::client {
@@ -15,10 +18,45 @@ constexpr std::chrono::milliseconds kFirstReport{1000}, kReportEvery{10000};
 double secondsOf(JoinClock::duration d) { return std::chrono::duration<double>(d).count(); }
 }  // namespace
 
+namespace {
+// What this process saw of the domain, for the messages of a join that found no server.
+std::string whatWasSeen(const JoinContext& context) {
+  const msg::DomainPresence seen = msg::domainPresenceInProcess();
+  std::string out;
+  if (seen.authentication_failures > 0) {
+    out += fmt::format(
+        " Authentication failed with {} participant(s) on this domain: is this identity signed by the "
+        "server's CA, and is neither certificate expired or revoked?",
+        seen.authentication_failures);
+  }
+  if (seen.servers_seen == 0) return out;
+  const auto& ns = seen.server_namespaces;
+  const bool same_namespace = std::find(ns.begin(), ns.end(), context.topic_namespace) != ns.end();
+  std::vector<std::string> quoted;
+  for (const std::string& n : ns) quoted.push_back(n.empty() ? "none" : "'" + n + "'");
+  out +=
+      fmt::format(" {} densemap-server participant(s) are on this domain (namespace {}) and matched nothing",
+                  seen.servers_seen, fmt::join(quoted, ", "));
+  if (!same_namespace) {
+    out += ": this program uses another namespace (give the server's --namespace).";
+  } else if (context.secure) {
+    out +=
+        ": the server did not admit this identity (its log names each refused participant: another CA, "
+        "expired, revoked, or permissions that do not grant these topics).";
+  } else {
+    out +=
+        ": are both of one densemap version (the wire types' names carry their version, so a server "
+        "and a client of other versions never match)?";
+  }
+  return out;
+}
+}  // namespace
+
 JoinContext joinContext(const msg::DdsOptions& dds, const msg::DdsNode& node, std::string what) {
   JoinContext c;
   c.what = std::move(what);
   c.secure = node.secure();
+  c.topic_namespace = dds.topic_namespace;
   c.where =
       fmt::format("DDS domain {}, {}, {}, {}", dds.domain,
                   dds.topic_namespace.empty() ? "no namespace" : "namespace '" + dds.topic_namespace + "'",
@@ -39,9 +77,10 @@ std::string noServerMessage(const JoinContext& context, std::chrono::millisecond
           ? "; the server refused this identity (another CA, expired or revoked: the server's log names "
             "each refused participant) or this identity's role may not use these topics"
           : "; the server is secure and this program is not (give --security-dir)";
-  return fmt::format("no densemap-server matched within {:g} s: waited for {} on {} ({}). Likely causes: {}",
-                     std::chrono::duration<double>(waited).count(), context.what, context.where, state,
-                     causes);
+  return fmt::format(
+      "no densemap-server matched within {:g} s: waited for {} on {} ({}).{} Likely causes: {}",
+      std::chrono::duration<double>(waited).count(), context.what, context.where, state, whatWasSeen(context),
+      causes);
 }
 
 ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::function<void()>& rejoin,
@@ -70,8 +109,9 @@ ServerJoin joinServerWith(const std::function<JoinTarget()>& target, const std::
       if (next_report == start + kFirstReport) {
         spdlog::warn("waiting up to {:g} s for {} on {}", secondsOf(timeout), context->what, context->where);
       } else {
-        spdlog::warn("still waiting for the server ({:.0f} s of {:g} s): {}", secondsOf(JoinClock::now() - start),
-                     secondsOf(timeout), out.state);
+        spdlog::warn("still waiting for the server ({:.0f} s of {:g} s): {}.{}",
+                     secondsOf(JoinClock::now() - start), secondsOf(timeout), out.state,
+                     whatWasSeen(*context));
       }
       next_report = JoinClock::now() + kReportEvery;
     }

@@ -1,8 +1,12 @@
 #include "densemap/msg/dds_node.h"
 #include "densemap/util/wall_clock.h"
 
+#include <algorithm>
 #include <chrono>
 #include <mutex>
+#include <set>
+#include <sstream>
+#include <string_view>
 
 #include <fastdds/rtps/common/Locator.h>
 #include <fastrtps/utils/IPLocator.h>
@@ -91,6 +95,69 @@ bool matchedBothWays(eprosima::fastdds::dds::DataWriter& writer, eprosima::fastd
 
 std::int64_t nowNs() { return util::wallClockNs(); }
 
+namespace {
+
+constexpr std::string_view kServerAnnouncement = "densemap-server;namespace=";
+
+struct PresenceRecord {
+  std::mutex mutex;
+  std::set<std::string> server_guids;
+  std::set<std::string> refused_guids;
+  std::set<std::string> namespaces;
+};
+PresenceRecord& presenceRecord() {
+  static PresenceRecord record;
+  return record;
+}
+// Past this many, a flood of new participants is no longer remembered (the counts stay lower bounds).
+constexpr std::size_t kMaxRemembered = 1024;
+
+std::string guidOf(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  std::ostringstream s;
+  s << guid.guidPrefix;
+  return s.str();
+}
+
+}  // namespace
+
+DomainPresence domainPresenceInProcess() {
+  PresenceRecord& r = presenceRecord();
+  std::lock_guard lock(r.mutex);
+  return {r.server_guids.size(), {r.namespaces.begin(), r.namespaces.end()}, r.refused_guids.size()};
+}
+
+// A client that sees no server must say why: a server that is there but matches nothing (another
+// namespace, or it did not admit this identity) is told apart from none at all.
+class DdsNode::PresenceWatch : public dds::DomainParticipantListener {
+ public:
+  void on_participant_discovery(dds::DomainParticipant*,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) return;
+    const auto& bytes = info.info.m_userData.data_vec();
+    const std::string announced(bytes.begin(), bytes.end());
+    if (announced.rfind(kServerAnnouncement, 0) != 0) return;
+    PresenceRecord& r = presenceRecord();
+    std::lock_guard lock(r.mutex);
+    if (r.server_guids.size() < kMaxRemembered) r.server_guids.insert(guidOf(info.info.m_guid));
+    if (r.namespaces.size() < 16) r.namespaces.insert(announced.substr(kServerAnnouncement.size()));
+  }
+  void onParticipantAuthentication(dds::DomainParticipant*,
+                                   eprosima::fastrtps::rtps::ParticipantAuthenticationInfo&& info) override {
+    if (info.status != eprosima::fastrtps::rtps::ParticipantAuthenticationInfo::UNAUTHORIZED_PARTICIPANT)
+      return;
+    const std::string guid = guidOf(info.guid);
+    PresenceRecord& r = presenceRecord();
+    {
+      std::lock_guard lock(r.mutex);  // Fast DDS retries a failed handshake: each participant counts once
+      if (r.refused_guids.size() >= kMaxRemembered || !r.refused_guids.insert(guid).second) return;
+    }
+    spdlog::warn(
+        "DDS-Security: authentication with participant {} failed (another CA, or a certificate expired or "
+        "revoked on either side): it will not match this program",
+        guid);
+  }
+};
+
 DdsNode::DdsNode(const DdsOptions& options, dds::DomainParticipantListener* discovery) {
   if (options.domain < 0 || options.domain > 232) {
     throw DdsError("DDS domain id " + std::to_string(options.domain) + " is out of range (0..232)");
@@ -112,6 +179,14 @@ DdsNode::DdsNode(const DdsOptions& options, dds::DomainParticipantListener* disc
   if (!options.security_dir.empty()) {
     identity_ = checkSecurityFolder(options.security_dir);
     applySecurity(identity_, qos);
+  }
+  if (options.announce_server) {
+    const std::string announced = std::string(kServerAnnouncement) + options.topic_namespace;
+    qos.user_data().data_vec({announced.begin(), announced.end()});
+  }
+  if (discovery == nullptr) {
+    watch_ = std::make_unique<PresenceWatch>();
+    discovery = watch_.get();
   }
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain), qos, discovery,
                                              dds::StatusMask::none());

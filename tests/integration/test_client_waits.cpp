@@ -66,6 +66,20 @@ TEST(ClientWaits, AReplayToAServerOnAnotherDomainEndsTheSameWay) {
   EXPECT_EQ(server.service.statistics().totals().received, 0u);
 }
 
+TEST(ClientWaits, AReplayToAServerOnAnotherNamespaceSaysTheServersNamespace) {
+  // The server announces itself and its namespace in its discovery data: the client names it.
+  ServerOptions o = serverOptions(57);
+  o.dds.topic_namespace = "fleet_a";
+  TestServer server(o);
+  const CommandResult r = runCommand(replay(57, "--wait 3"), Stderr::kCapture);
+  expectNoServerMessage(r, 57);
+  EXPECT_NE(r.output.find("1 densemap-server participant(s) are on this domain (namespace 'fleet_a')"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("this program uses another namespace"), std::string::npos) << r.output;
+  EXPECT_EQ(server.service.statistics().totals().received, 0u);
+}
+
 TEST(ClientWaits, AQueryWithNoServerEndsWithTheLikelyCauses) {
   const CommandResult r = runCommand(
       std::string(DENSEMAP_QUERY_BINARY) + " --domain 54 --loopback --wait 3 stats", Stderr::kCapture);

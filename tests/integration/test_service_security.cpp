@@ -372,6 +372,25 @@ TEST(Security, AnIdentityFromAnotherCaIsRefused) {
   std::this_thread::sleep_for(2s);
   EXPECT_EQ(server.service.statistics().totals().received, 0u);
   EXPECT_GE(server.edge.participantsRefused(), 1u) << "the refusal is not counted";
+  // The stranger's side knows a server is there that did not admit it, not "no server".
+  EXPECT_GE(msg::domainPresenceInProcess().servers_seen, 1u);
+}
+
+// A tool whose identity the server does not admit ends its --wait non-zero, saying a server is there and
+// did not admit it, not only that nothing matched.
+TEST(Security, AToolTheServerDoesNotAdmitSaysSo) {
+  Keystore keys;
+  const fs::path other = keys.scratch("other-ca-tool") / "keystore";
+  makeSecurity(other, "--robots 1 --clients 1");
+  TestServer server(secureServer(212, keys / "server"));
+  const CommandResult r =
+      runCommand(std::string(DENSEMAP_REPLAY_BINARY) + " --domain 212 --loopback --security-dir " +
+                     (other / "robot-1").string() + " --source sim:scans=2 --wait 6",
+                 Stderr::kCapture);
+  EXPECT_NE(r.exitCode(), 0) << r.output;
+  EXPECT_NE(r.output.find("no densemap-server matched within 6 s"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the server did not admit this identity"), std::string::npos) << r.output;
+  EXPECT_EQ(server.service.statistics().totals().received, 0u);
 }
 
 TEST(Security, AnExpiredCertificateIsRefused) {

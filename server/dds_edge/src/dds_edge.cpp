@@ -234,6 +234,7 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
   try {
     msg::DdsOptions dds = options_.dds;
     dds.name = service_.options().server_id;
+    dds.announce_server = true;
     {
       std::vector<std::string> bases;  // as on the wire (DdsNode::topicName), before the node exists
       const std::string ns = dds.topic_namespace.empty() ? "" : dds.topic_namespace + "/";

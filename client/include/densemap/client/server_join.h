@@ -26,6 +26,7 @@ struct JoinContext {
   std::string what;   ///< e.g. "a densemap-server reading densemap/scans/robot_h0"
   std::string where;  ///< e.g. "DDS domain 0, no namespace, shared memory + UDP on every interface, plain"
   bool secure = false;
+  std::string topic_namespace;  ///< the client's own, to tell a server on another namespace
 };
 
 /// The context of a client on `node` (made from `dds`) waiting for `what`.

@@ -78,7 +78,20 @@ struct DdsOptions {
   /// DDS-Security: an identity folder (tools/make-security.sh DIR/<identity>, or an SROS2 enclave). Empty:
   /// plain DDS, unauthenticated and unencrypted.
   std::string security_dir;
+  /// A densemap server's participant announces itself (and its namespace) in its discovery data, so a
+  /// client that finds a server but matches none of its topics can say why instead of "no server".
+  bool announce_server = false;
 };
+
+/// What the secure and plain nodes of this process (those made without a discovery listener of their own:
+/// clients) saw of the domain: servers that announced themselves, and participants whose authentication
+/// with this process's identity failed. Kept across replaced nodes.
+struct DomainPresence {
+  std::uint64_t servers_seen = 0;              ///< densemap server participants discovered (each once)
+  std::vector<std::string> server_namespaces;  ///< their namespaces, as announced (empty: none)
+  std::uint64_t authentication_failures = 0;
+};
+[[nodiscard]] DomainPresence domainPresenceInProcess();
 
 class DdsError : public std::runtime_error {
  public:
@@ -127,6 +140,8 @@ class DdsNode {
   void close();
 
  private:
+  class PresenceWatch;
+  std::unique_ptr<PresenceWatch> watch_;  // outlives participant_: close() detaches it first
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
