@@ -8,15 +8,19 @@
 #   ./tools/demo.sh ../shared/data/kitti00  # any source densemap-replay reads
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$root/tools/install-deps.sh"
 out="$root/out"
 mkdir -p "$out"
-echo "== building (the first build takes ~15 minutes on 2 cores; progress in out/build.log)"
-if ! "$root/tools/build.sh" > "$out/build.log" 2>&1; then
+t0=$(date +%s)
+"$root/tools/install-deps.sh" --programs
+t1=$(date +%s)
+echo "== building densemap-server, densemap-replay, densemap-query and the ILN plugin (a few minutes on 2"
+echo "   cores the first time; progress in out/build.log)"
+if ! "$root/tools/build.sh" --programs > "$out/build.log" 2>&1; then
   tail -n 40 "$out/build.log" >&2
   echo "demo: the build failed (above; the whole log is out/build.log)" >&2
   exit 1
 fi
+t2=$(date +%s)
 source="${1:-sim:scans=30}"
 domain="${DENSEMAP_DOMAIN:-42}"
 bin="$root/build"
@@ -66,6 +70,8 @@ wait "$server"
 trap - EXIT
 grep "ROS 2 edge stopped" "$out/server.log" || true
 tail -n 3 "$out/server.log"
+t3=$(date +%s)
+echo "== times: installing packages $((t1 - t0)) s, building $((t2 - t1)) s, the demo itself $((t3 - t2)) s"
 echo "== done: out/demo_map.png (left: occupied cells from above by height; right: probability at z = 1 m),"
 echo "   out/demo_map.bt (open with octovis), out/maps/demo.ot (saved on request), out/replay.json (counts"
 echo "   and latencies), out/server.log"
