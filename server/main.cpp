@@ -1,6 +1,6 @@
 // densemap-server: the mapping service under its DDS edge. Runs with no configuration; a TOML file
 // (--config, same names as the long flags) and flags override the defaults. Every option is declared once,
-// in an option table (densemap/server/dds_edge/server_config.h lists them).
+// in an option table (densemap/server/app/server_config.h lists them).
 #include <csignal>
 #include <cstdio>
 
@@ -9,8 +9,8 @@
 
 #include "densemap/cli/cli_common.h"
 #include "densemap/cli/option_cli.h"
+#include "densemap/server/app/server_config.h"
 #include "densemap/server/dds_edge/dds_edge.h"
-#include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/map_service.h"
 #include "densemap/server/openmp_idle_spin.h"
 #include "densemap/server/ros2_edge/octomap_params.h"
@@ -21,9 +21,9 @@ using namespace densemap;
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-server: builds an occupancy map from LiDAR scans on DDS and answers queries"};
-  server::dds_edge::ServerConfig config;
-  auto tables = server::dds_edge::serverOptionTables(config);
-  std::vector<cli::OptionTable*> list;
+  server::app::ServerConfig config;
+  auto tables = server::app::serverOptionTables(config);
+  std::vector<options::OptionTable*> list;
   for (auto& t : tables) list.push_back(&t);
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   bool print_config = false;
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
   cli::addToApp(app, list);
   if (const auto rc = cli::parse(app, argc, argv, list)) return *rc;
   if (print_config) {
-    std::fputs(server::dds_edge::defaultServerToml().c_str(), stdout);
+    std::fputs(server::app::defaultServerToml().c_str(), stdout);
     return 0;
   }
   cli::setupLogging(config.log_level);

@@ -1,4 +1,4 @@
-"""The sources the default method is judged on (issue 24, deliverable 2), shared by fastest_ab.py and
+"""The sources the default method is judged on, shared by fastest_ab.py and
 method_table.py: kitti00 0-9, hilti2023 0-29, the simulator's 60 scans and la3dm sim_structured, read from
 ../shared/data beside the repository."""
 import os

@@ -1,4 +1,4 @@
-// densemap-decay-bench: issue 22's decay figures, in one process.
+// densemap-decay-bench: the decay figures, in one process.
 //  1. The time to clear a moved obstacle: the moving-box room (io/moving_box_room.h: the box moves to a
 //     place that hides its old one from every ray) at 10 Hz, for each decay time and without decay: how
 //     long after the move until no cell of the old place reads occupied, and until all are unknown; and
@@ -20,6 +20,7 @@
 #include "densemap/cli/option_cli.h"
 #include "densemap/io/moving_box_room.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/util/percentile.h"
 #include "densemap/util/wall_clock.h"
 
@@ -87,7 +88,7 @@ Clearing clearMovedBox(double decay_s, double step_s, double period_s, double ho
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-decay-bench: the time decay takes to clear a moved obstacle, and its update cost"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string log_level = "warn";
   map::MapOptions map_options;  // --decay-s / --decay-step-s: the setting whose cost part 2 measures
   map_options.decay.seconds_to_unknown = 10.0;
@@ -95,10 +96,10 @@ int main(int argc, char** argv) {
   int rounds = 3;
   double period_s = 0.1;
   std::vector<double> clear_times{2.0, 5.0, 10.0};
-  auto map_table = cli::mapOptions(map_options);
-  auto update_table = cli::updateOptions(update_options);
+  auto map_table = map::mapOptionTable(map_options);
+  auto update_table = update::updateOptionTable(update_options);
   auto logging_table = cli::loggingOptions(log_level);
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   app.add_option("--rounds", rounds, "rounds of part 2 (without and with decay alternate)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -136,7 +137,7 @@ int main(int argc, char** argv) {
     }
 
     // Part 2.
-    const auto src = io::openSource(source.source, source.options);
+    const auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     const std::vector<cli::WorldScan> scans = cli::loadScans(*src, range);
     std::printf(

@@ -24,6 +24,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/retain_freed_memory.h"
 #include "quiet_stderr.h"
@@ -43,7 +44,7 @@ double median(std::vector<double> v) {
 /// A method's own noise in this run: the interquartile range of its repetitions over their median
 /// (quartiles interpolated linearly; 0 with fewer than two). For normal noise that is about 1.8 standard
 /// errors of the ratio of two medians of 5, so a smaller difference between two methods is not a measured
-/// one (issue 24).
+/// one.
 double relativeSpread(std::vector<double> v) {
   if (v.size() < 2) return 0.0;
   std::sort(v.begin(), v.end());
@@ -238,7 +239,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "densemap-bench: update speed of baseline, super rays, culling region and both, beside OctoMap (Table "
       "2.4)"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string resolutions = "0.2", backends = "grid,octree", methods = "all", semantics = "batch";
   std::string log_level = "warn";
   double max_range = -1.0, realtime = 0.0;
@@ -286,7 +287,7 @@ int main(int argc, char** argv) {
   app.add_option("--graph-out", graph_out,
                  "also keep the scans as this OctoMap .graph (to run densemap-octomap-reference by hand)");
   auto logging_table = cli::loggingOptions(log_level);
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   cli::addToApp(app, {&source_table, &logging_table});
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &logging_table})) return *rc;
   densemap::util::retainFreedMemory();
@@ -318,7 +319,7 @@ int main(int argc, char** argv) {
     std::vector<double> res_list;
     for (const auto& r : splitList(resolutions)) res_list.push_back(std::stod(r));
 
-    auto src = io::openSource(source.source, source.options);
+    auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     const auto scans = cli::loadScans(*src, range);
     std::unique_ptr<ScanGraphFile> graph;
@@ -461,7 +462,7 @@ int main(int argc, char** argv) {
                     "fps", "proc ms", "update ms", "speedup", "traversed", "changed", "trav/chg", "rays",
                     "pts/ray", "unnecessary", "identical", realtime > 0 ? "realtime" : "");
       }
-      // The default (fastest) against the best of the four concrete methods, per backend (issue 24).
+      // The default (fastest) against the best of the four concrete methods, per backend.
       std::map<std::string, std::pair<update::UpdateMethod, double>> best_of_four;
       for (const auto& backend : backend_list)
         for (auto m : method_list) {
@@ -476,13 +477,13 @@ int main(int argc, char** argv) {
           const double total = median(a.total_ms);
           const double ppr =
               a.stats.rays ? static_cast<double>(a.stats.points) / static_cast<double>(a.stats.rays) : 0.0;
-          // Cells walked per distinct cell the scans changed: 1 is the limit for any exact method (issue 24).
+          // Cells walked per distinct cell the scans changed: 1 is the limit for any exact method.
           const double per_cell = a.stats.changed_cells ? static_cast<double>(a.stats.traversed) /
                                                               static_cast<double>(a.stats.changed_cells)
                                                         : 0.0;
           if (!a.identical)
             spdlog::error("{} {} map differs from its reference: {}", backend, update::toString(m), a.why);
-          // fastest against the best of the four, and whether beyond the best's own spread (issue 24).
+          // fastest against the best of the four, and whether beyond the best's own spread.
           const bool judged = m == update::UpdateMethod::kFastest && best_of_four.count(backend);
           const auto [best, best_ms] = judged ? best_of_four[backend] : std::pair{m, total};
           const double vs_best = total / best_ms;

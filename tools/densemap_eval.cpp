@@ -26,6 +26,7 @@
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/image.h"
 
@@ -54,7 +55,7 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-eval: held-out evaluation (80% of each scan maps, 20% tests) of occupancy methods"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string methods_text = "exact,bgk,akimap", roc_csv, log_level = "warn";
   // The kernel layers' options are the server's table; the held-out protocol samples free space per
   // dense cell (free voxel 0), where the server's default thins it to 0.3 m for 64-beam scans.
@@ -93,11 +94,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "bilinear", "iln"}));
   app.add_option("--densify-weights", densify_weights, "ILN weights (default models/iln/iln_compact.pt)");
-  auto map_table = cli::mapOptions(map_options);
-  auto update_table = cli::updateOptions(update_options);
+  auto map_table = map::mapOptionTable(map_options);
+  auto update_table = update::updateOptionTable(update_options);
   auto logging_table = cli::loggingOptions(log_level);
-  auto source_table = cli::sourceOptions(source);
-  auto kernel_table = cli::kernelLayerOptions(kernel_options);
+  auto source_table = sources::sourceOptionTable(source);
+  auto kernel_table = dense::kernelLayerOptionTable(kernel_options);
   cli::addToApp(app, {&source_table, &map_table, &update_table, &kernel_table, &logging_table});
   if (const auto rc = cli::parse(app, argc, argv,
                                  {&source_table, &map_table, &update_table, &kernel_table, &logging_table}))
@@ -111,7 +112,7 @@ int main(int argc, char** argv) {
   cli::setThreads(threads);
 
   try {
-    auto src = io::openSource(source.source, source.options);
+    auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     // The split is drawn once, so every method sees the same map points and is tested on the same points.
     std::mt19937_64 rng(seed);

@@ -22,6 +22,7 @@
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/densify/model_files.h"
 #include "densemap/io/pcd_file.h"
+#include "densemap/sources/open_source.h"
 
 using namespace densemap;
 using densify::LidarGeometry;
@@ -111,7 +112,7 @@ int runTrain(const TrainArgs& a) {
     }
   }
   if (!a.kitti.empty()) {
-    auto src = io::openSource(a.kitti);
+    auto src = sources::openSource(a.kitti);
     const auto range = cli::parseScanRange(a.kitti_scans, src->size());
     if (range.last >= 50 && a.kitti.find("kitti00") != std::string::npos)
       spdlog::warn("training on kitti00 scans >= 50, which densemap-iln eval holds out");
@@ -199,7 +200,7 @@ int runEval(const EvalArgs& a) {
     described =
         model.name + " model in simulator test scenes (seeds 1.." + std::to_string(a.sim_scenes) + ")";
   } else {
-    auto src = io::openSource(a.source);
+    auto src = sources::openSource(a.source);
     const auto range = cli::parseScanRange(a.scans, src->size());
     described = src->describe();
     for (std::size_t i = range.first; i <= range.last; ++i) {

@@ -14,6 +14,7 @@
 #include "densemap/map/map_factory.h"
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/retain_freed_memory.h"
 
@@ -22,7 +23,7 @@ using namespace densemap;
 int main(int argc, char** argv) {
   CLI::App app{
       "densemap-map: build an occupancy map from scans (exact log-odds map, super rays + culling region)"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string output, log_level = "info";
   map::MapOptions map_options;
   map_options.backend = "octree";  // this tool writes OctoMap files by default
@@ -30,11 +31,11 @@ int main(int argc, char** argv) {
   int threads = 0;
   unsigned threshold = 20;
   std::size_t closure_every = 8;
-  auto map_table = cli::mapOptions(map_options);
-  auto update_table = cli::updateOptions(opt);
+  auto map_table = map::mapOptionTable(map_options);
+  auto update_table = update::updateOptionTable(opt);
   auto logging_table = cli::loggingOptions(log_level);
   app.set_config("--config", "", "TOML/INI file with any of these options (flags override it)");
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   cli::addToApp(app, {&source_table, &map_table, &update_table, &logging_table});
   app.add_option("--super-ray-threshold", threshold, "min points per voxel for super rays (k)")
       ->capture_default_str();
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
   const int used_threads = cli::setThreads(threads);
 
   try {
-    auto src = io::openSource(source.source, source.options);
+    auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     spdlog::info("source: {}", src->describe());
     opt.super_rays.threshold = threshold;

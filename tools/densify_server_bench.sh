@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The densify stage in the server (issue 23): one 16-beam simulated robot at 10 Hz densified to 64 beams,
+# The densify stage in the server: one 16-beam simulated robot at 10 Hz densified to 64 beams,
 # ILN and bilinear alternating on a fresh server each, so both see the same machine state. Prints one row
 # per run: the densify stage's p50 / p99, the occupancy update's p50 and the robot's publish-to-map latency.
 #   tools/densify_server_bench.sh [ROUNDS] [SCANS]     default: 2 rounds of 100 scans

@@ -1,4 +1,4 @@
-// densemap-durability-bench: what the journal costs and what a restart takes (issue 20's figures), in one
+// densemap-durability-bench: what the journal costs and what a restart takes (the figures), in one
 // process so the modes share the machine's state: per mode (journal off; on, uncompressed; on, zstd
 // levels) the scans are mapped one at a time (each waits for its outcome, as a robot's acknowledgement
 // does) and the per-scan time, journal bytes and fsyncs are recorded; then the service is stopped without
@@ -21,6 +21,7 @@
 #include "densemap/cli/common_options.h"
 #include "densemap/cli/option_cli.h"
 #include "densemap/server/map_service.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/util/percentile.h"
 
 using namespace densemap;
@@ -85,7 +86,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-durability-bench: the journal's cost per scan and the restart time, mode by mode"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string log_level = "warn";
   int rounds = 3;
   std::vector<int> zstd_levels{1, 3};
@@ -96,7 +97,7 @@ int main(int argc, char** argv) {
   options.durability.snapshot_on_exit = false;  // the restarts below choose what the directory holds
   options.durability.snapshot_every_scans = 0;
   options.durability.snapshot_every_s = 0;
-  auto map_table = cli::mapOptions(options.map);
+  auto map_table = map::mapOptionTable(options.map);
   auto logging_table = cli::loggingOptions(log_level);
   app.add_option("--rounds", rounds, "rounds (the modes alternate within each)")->capture_default_str();
   app.add_option("--zstd", zstd_levels, "zstd levels to measure beside uncompressed records")
@@ -104,13 +105,13 @@ int main(int argc, char** argv) {
   app.add_option("--journal-sync-ms", sync_ms, "group commit window of the journaled modes")
       ->capture_default_str();
   app.add_flag("--json", as_json, "print one JSON object");
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   cli::addToApp(app, {&source_table, &map_table, &logging_table});
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
   try {
     options.durability.journal_sync_ms = sync_ms;
-    const auto src = io::openSource(source.source, source.options);
+    const auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     std::vector<io::Scan> scans;
     cli::Progress loading("loading", range.last - range.first + 1);

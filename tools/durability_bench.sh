@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 20's service-level figures, natively over DDS (docs/BENCHMARKS.md, "Durability: what it costs"),
+# The service-level figures, natively over DDS (docs/BENCHMARKS.md, "Durability: what it costs"),
 # every setting beside its baseline in the same run, settings alternating round by round:
 #  1. acknowledgement latency (publish to durable ack) of one robot streaming SOURCE at 10 Hz, for the
 #     journal off and each --journal-sync-ms; the journal's bytes per scan; the restart of the server on

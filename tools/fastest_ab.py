@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""fastest against the best of the four, two builds side by side (issue 24, deliverable 2).
+"""fastest against the best of the four, two builds side by side.
 Usage: tools/fastest_ab.py OLD_DENSEMAP_BENCH NEW_DENSEMAP_BENCH [RUNS=2]
        tools/fastest_ab.py --verdict DENSEMAP_BENCH
 Runs both builds in alternation on kitti00 0-9, hilti2023 0-29, sim:scans=60 and la3dm sim_structured

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz, clang with AddressSanitizer and UndefinedBehaviorSanitizer) and
-# runs each for SECONDS (default 20), or only the targets named; exits 1 when one finds a crash (its input
-# is left in build-fuzz/). Seeds: tests/fuzz/corpus/TARGET, DDS samples serialized by make_dds_seeds, and
+# Builds the libFuzzer targets (-DDENSEMAP_FUZZ=ON: every module with clang, AddressSanitizer and
+# UndefinedBehaviorSanitizer; each module declares its own in its fuzz/ folder) and runs each for SECONDS
+# (default 20), or only the targets named; exits 1 when one finds a crash (its input is left in
+# build-fuzz/fuzz/). Seeds: the module's fuzz/corpus/TARGET, DDS samples serialized by make_dds_seeds, and
 # small files from ../shared/data when it is there (copied into build-fuzz, never into the repository).
 # Installs clang and its fuzzer runtime if they are missing. Prints one summary line per target.
 #   tools/fuzz.sh [SECONDS] [TARGET...]
@@ -20,11 +21,15 @@ if ! command -v clang++ > /dev/null || ! dpkg -s libclang-rt-14-dev > /dev/null 
   echo "fuzz: installing clang and libclang-rt-14-dev"
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq clang libclang-rt-14-dev > /dev/null
 fi
-# A unity build, as in tools/sanitize.sh: each target's sources compiled eight at a time.
-cmake -S "$root/tests/fuzz" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang \
-  -DCMAKE_UNITY_BUILD=ON > /dev/null
-cmake --build "$root/build-fuzz"
-cd "$root/build-fuzz"
+# A unity build, as in tools/sanitize.sh: each target's sources compiled eight at a time. -O1 with asserts
+# on (no NDEBUG): an assertion a fuzzer trips is a finding.
+mkdir -p "$root/build-fuzz"
+cmake -S "$root" -B "$root/build-fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang \
+  -DDENSEMAP_FUZZ=ON -DDENSEMAP_BUILD_TESTS=OFF -DDENSEMAP_BUILD_BENCHMARKS=OFF -DDENSEMAP_BUILD_ILN_PLUGIN=OFF \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
+  -DCMAKE_UNITY_BUILD=ON > "$root/build-fuzz/configure.log" 2>&1 || { cat "$root/build-fuzz/configure.log"; exit 1; }
+cmake --build "$root/build-fuzz" --target densemap_fuzz_targets
+cd "$root/build-fuzz/fuzz"
 ./make_dds_seeds seeds
 ./make_ros2_seeds seeds
 data="${DENSEMAP_DATA_DIR:-$root/../shared/data}"
@@ -44,7 +49,7 @@ if [ -d "$data" ]; then
     [ -f "$f" ] && { printf '\x00'; cat "$f"; } > "seeds/fuzz_pose_file/data-$(basename "$(dirname "$(dirname "$f")")")"
   done
 else
-  echo "fuzz: no $data; seeds from tests/fuzz/corpus only"
+  echo "fuzz: no $data; seeds from the modules' fuzz/corpus only"
 fi
 # Malloc stack traces dominate the cost of small inputs; crashes still get full traces.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-malloc_context_size=2}"
@@ -56,10 +61,12 @@ fuzz_one() {
   local target="$1" rc=0 start runs crashes seeds
   local args=("corpus-$target")
   mkdir -p "corpus-$target"
-  for seeds in "$root/tests/fuzz/corpus/$target" "seeds/$target"; do
+  local source
+  source="$(cat "$target.source")"
+  for seeds in "$source/corpus/$target" "seeds/$target"; do
     [ -d "$seeds" ] && cp -n "$seeds"/* "corpus-$target/" 2> /dev/null || true
   done
-  [ -f "$root/tests/fuzz/$target.dict" ] && args+=("-dict=$root/tests/fuzz/$target.dict")
+  [ -f "$source/$target.dict" ] && args+=("-dict=$source/$target.dict")
   start=$(date +%s)
   # shellcheck disable=SC2086 # FUZZ_LIMIT is one flag without spaces
   "./$target" $FUZZ_LIMIT -rss_limit_mb=2048 -print_final_stats=1 "${args[@]}" > "$target.log" 2>&1 || rc=$?
@@ -68,7 +75,7 @@ fuzz_one() {
   echo "fuzz: $target ($FUZZ_WHAT): ${runs:-?} executions in $(( $(date +%s) - start )) s, ${crashes} crashes, corpus $(ls "corpus-$target" | wc -l) inputs"
   if [ "$rc" -ne 0 ]; then
     grep -E "ERROR|SUMMARY|runtime error|Test unit written" "$target.log" | head -5
-    echo "fuzz: $target failed (log build-fuzz/$target.log, crash input in build-fuzz/)" >&2
+    echo "fuzz: $target failed (log build-fuzz/fuzz/$target.log, crash input in build-fuzz/fuzz/)" >&2
     return 1
   fi
 }
@@ -77,7 +84,7 @@ export root FUZZ_LIMIT="${limit[0]}" FUZZ_WHAT="$what"
 status=0
 runnable=()
 for target in "${targets[@]}"; do
-  if [ -f "$target" ] && [ -x "$target" ]; then runnable+=("$target"); fi  # fuzz_* also matches their logs
+  if [ -f "$target" ] && [ -x "$target" ]; then runnable+=("$target"); fi  # fuzz_* also matches logs, .source
 done
 [ ${#runnable[@]} -gt 0 ] || { echo "fuzz: no built fuzz target among: ${targets[*]}" >&2; exit 1; }
 printf '%s\n' "${runnable[@]}" | xargs -P 2 -I{} bash -c 'fuzz_one "$1"' _ {} || status=1

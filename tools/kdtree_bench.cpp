@@ -13,6 +13,7 @@
 #include "densemap/cli/cli_common.h"
 #include "densemap/dense/adaptive_kernel_layer.h"
 #include "densemap/dense/occupancy_samples.h"
+#include "densemap/sources/open_source.h"
 
 using namespace densemap;
 using Clock = std::chrono::steady_clock;
@@ -45,7 +46,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   cli::setupLogging("warn");
   try {
-    const auto src = io::openSource(source);
+    const auto src = sources::openSource(source);
     const io::Scan s = src->read(scan);
     dense::SamplingOptions so;
     so.resolution = resolution;

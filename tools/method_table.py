@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Each exact update method's time per scan, against the baseline's, with what the scans are (issue 24).
+"""Each exact update method's time per scan, against the baseline's, with what the scans are.
 Usage: tools/method_table.py DENSEMAP_BENCH [REPEAT=3]
 Runs densemap-bench --method all --repeat REPEAT at 0.1-0.8 m on kitti00 0-9, hilti2023 0-29,
 sim:scans=60 and la3dm sim_structured (from ../shared/data) and prints per source, backend and resolution:

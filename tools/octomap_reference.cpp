@@ -1,5 +1,5 @@
 // densemap-octomap-reference: OctoMap's own OcTree::insertPointCloud on the scans densemap-bench hands it
-// (an OctoMap .graph), in a process of its own. densemap-bench's reference (issue 24): no densemap thread,
+// (an OctoMap .graph), in a process of its own. densemap-bench's reference: no densemap thread,
 // allocator setting or cache state of the benchmark can slow or speed it. The only densemap code here is
 // the file parser, which runs before the first timed insert and starts no threads.
 #include <chrono>

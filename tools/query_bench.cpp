@@ -19,6 +19,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_factory.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "densemap/util/percentile.h"
 
@@ -32,13 +33,13 @@ double us(Clock::time_point t) { return std::chrono::duration<double, std::micro
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-query-bench: point-query lookups, one per point vs one batch, on a map of a source"};
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   map::MapOptions map_options;
   double radius = 20.0;
   std::size_t points = 1000, batches = 500;
   bool as_json = false;
-  auto map_table = cli::mapOptions(map_options);
-  auto source_table = cli::sourceOptions(source);
+  auto map_table = map::mapOptionTable(map_options);
+  auto source_table = sources::sourceOptionTable(source);
   cli::addToApp(app, {&source_table, &map_table});
   app.add_option("--points", points, "points per query batch")->capture_default_str();
   app.add_option("--batches", batches, "query batches timed per method")->capture_default_str();
@@ -53,7 +54,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const auto src = io::openSource(source.source, source.options);
+    const auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     std::unique_ptr<map::OccupancyMap> m = map::makeMap(map_options);
     update::UpdateEngine engine;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Query round-trip tail under a streaming robot (issue 3's diagnosis): one densemap-server on DDS loopback,
+# Query round-trip tail under a streaming robot (the diagnosis): one densemap-server on DDS loopback,
 # optionally one robot replaying SOURCE at 10 Hz, and one query client at 100 Hz for 16 s (1,600 queries).
 #   tools/query_tail.sh [--help]
 # Environment (all optional):

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Does densemap-bench's OctoMap reference time OctoMap as a standalone run does (issue 24)? Alternates, for
+# Does densemap-bench's OctoMap reference time OctoMap as a standalone run does? Alternates, for
 # ROUNDS rounds: densemap-bench (grid baseline; its reference runs densemap-octomap-reference as a child
 # process) and densemap-octomap-reference run by hand on the same scans. Prints OctoMap's ms per scan from
 # both, per round, and the median ratio. DENSEMAP_INPROCESS_BENCH: an older densemap-bench binary whose

@@ -15,7 +15,7 @@
 #include "densemap/client/ros2_player.h"
 #include "densemap/client/scan_publisher.h"
 #include "densemap/client/server_join.h"
-#include "densemap/io/ros_bag_source.h"
+#include "densemap/ros2/bag_scan_source.h"
 #include "densemap/ros2/message_codec.h"
 #include "densemap/server/dds_edge/dds_edge.h"
 #include "densemap/server/map_service.h"
@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   cli::setupLogging(log_level);
   try {
-    io::RosBagSource src(source, {});
+    ros2::BagScanSource src(source, {});
     std::vector<io::Scan> scans;
     for (std::size_t i = 0; i < src.size(); ++i) scans.push_back(src.read(i));
     std::string cloud_topic;

@@ -23,6 +23,7 @@
 #include "densemap/cli/option_cli.h"
 #include "densemap/map/map_file.h"
 #include "densemap/server/map_service.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/util/percentile.h"
 
 using namespace densemap;
@@ -42,7 +43,7 @@ struct Round {
 
 int main(int argc, char** argv) {
   CLI::App app{"densemap-save-bench: query latency during a map save, under the lock vs from a snapshot"};
-  cli::SourceSelection source;  // --scans: mapped before the saves; the rest stream during them
+  sources::SourceSelection source;  // --scans: mapped before the saves; the rest stream during them
   std::string log_level = "warn";
   int rounds = 3;
   double rate = 10.0;
@@ -53,19 +54,19 @@ int main(int argc, char** argv) {
   options.durability.snapshot_every_scans = 0;  // only the snapshots this bench asks for
   options.durability.snapshot_every_s = 0;
   options.durability.snapshot_on_exit = false;
-  auto map_table = cli::mapOptions(options.map);
+  auto map_table = map::mapOptionTable(options.map);
   auto logging_table = cli::loggingOptions(log_level);
   app.add_option("--rounds", rounds, "saves per mode (modes alternate)")->capture_default_str();
   app.add_option("--rate", rate, "scans per second streaming during the saves")->capture_default_str();
   app.add_option("--points", points, "points per query (back to back from one thread)")
       ->capture_default_str();
   app.add_flag("--json", as_json, "print one JSON object");
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   cli::addToApp(app, {&source_table, &map_table, &logging_table});
   if (const auto rc = cli::parse(app, argc, argv, {&source_table, &map_table, &logging_table})) return *rc;
   cli::setupLogging(log_level);
   try {
-    const auto src = io::openSource(source.source, source.options);
+    const auto src = sources::openSource(source.source, source.options);
     const auto range = cli::parseScanRange(source.scans, src->size());
     const auto dir =
         std::filesystem::temp_directory_path() / ("densemap-save-bench-" + std::to_string(::getpid()));

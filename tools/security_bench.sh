@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# DDS-Security's cost, plain and secure alternating in one run (issue 21's figures): for each robot count, one
+# DDS-Security's cost, plain and secure alternating in one run (the figures): for each robot count, one
 # plain run and one secure run of docker/load_test.py natively on loopback, N simulated 64x1024 robots at
 # 10 Hz on the 0.2 m grid with 4 query clients asking 1,000 points 20 times a second, the server with
 # --overflow drop_oldest (a server that falls behind drops scans, so "zero drops" means it kept up). In

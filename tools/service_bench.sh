@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Service benchmark (issue 3's figures), natively on loopback: one densemap-server; one robot replaying a
+# Service benchmark (the figures), natively on loopback: one densemap-server; one robot replaying a
 # sequence at 10 Hz; query clients in their own process. Prints one JSON summary per run (in out/bench/).
 #   tools/service_bench.sh [SOURCE] [LOOPS]     default: ../shared/data/kitti00, 3 loops (180 scans)
 # Step 5 repeats step 2 with --realtime-priority 10 on a fresh server and the client, when this user may.

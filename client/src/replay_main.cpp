@@ -32,6 +32,7 @@
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/peer_topic.h"
 #include "densemap/ros2/bag_reader.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/util/percentile.h"
 #include "densemap/util/realtime_priority.h"
 #include "densemap/util/scheduler_slice.h"
@@ -82,7 +83,7 @@ int ros2NobodyReads(const client::JoinContext& context, const client::Ros2PlayRe
 int main(int argc, char** argv) {
   CLI::App app{"densemap-replay: publish scans from a source as robots to a densemap-server over DDS"};
   msg::DdsOptions dds;
-  cli::SourceSelection source;
+  sources::SourceSelection source;
   std::string prefix = "robot", offset_text = "0,0,0", summary_json, log_level = "info";
   int robots = 1, loops = 1, query_clients = 0, first_robot = 0, beam_step = 0;
   std::size_t max_scans = 0;
@@ -92,7 +93,7 @@ int main(int argc, char** argv) {
   app.set_config("--config", "", "TOML file with any of these options (flags override it)");
   auto dds_table = msg::ddsOptions(dds);
   auto logging_table = cli::loggingOptions(log_level);
-  auto source_table = cli::sourceOptions(source);
+  auto source_table = sources::sourceOptionTable(source);
   client::JoinOptions join_options;
   auto join_table = client::joinOptions(join_options);
   cli::addToApp(app, {&source_table, &dds_table, &join_table, &logging_table});
@@ -207,7 +208,7 @@ int main(int argc, char** argv) {
     std::vector<io::Scan> data;
     std::string described = "none (query clients only)";
     if (robots > 0) {
-      auto src = io::openSource(source.source, source.options);
+      auto src = sources::openSource(source.source, source.options);
       const auto range = cli::parseScanRange(source.scans, src->size());
       described = src->describe();
       spdlog::info("source: {}", described);

@@ -14,6 +14,7 @@
 #include "densemap/ros2/names.h"
 #include "densemap/ros2/qos.h"
 #include "densemap/ros2/scan_messages.h"
+#include "densemap/ros2/sensor_pose.h"
 
 namespace densemap::client {
 

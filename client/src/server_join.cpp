@@ -136,8 +136,8 @@ std::chrono::milliseconds JoinOptions::attempt(bool secure) const {
   return std::chrono::milliseconds(static_cast<long>(rejoin_after_s * 1000));
 }
 
-cli::OptionTable joinOptions(JoinOptions& o) {
-  cli::OptionTable t("Joining the server");
+options::OptionTable joinOptions(JoinOptions& o) {
+  options::OptionTable t("Joining the server");
   t.add("wait", o.wait_s,
         "seconds to wait for a server to match this program before giving up with the likely causes (what is "
         "awaited is logged after 1 s and every 10 s); robots also wait this long at the end for the last "

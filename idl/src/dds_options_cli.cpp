@@ -4,8 +4,8 @@
 
 namespace densemap::msg {
 
-cli::OptionTable ddsOptions(DdsOptions& o) {
-  cli::OptionTable t("DDS");
+options::OptionTable ddsOptions(DdsOptions& o) {
+  options::OptionTable t("DDS");
   t.add("domain", o.domain, "DDS domain id (UDP ports 7400 + 250 * domain and up)").range(0, 232);
   t.add("loopback", o.loopback, "DDS on this host only (shared memory + UDP on 127.0.0.1)");
   t.add("udp-only", o.udp_only,

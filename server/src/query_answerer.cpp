@@ -222,7 +222,7 @@ void QueryAnswerer::points(const PointsQuery& q, Answer& a) {
     }
     m.logOddsMany(keys, log_odds);  // one batch: the lookups' cache misses overlap
     const float threshold = map::OccupancyParams::logOdds(m.params().occupied_threshold);
-    // With a map window, a cell of a block stored out of memory is not unknown: say so (issue 22).
+    // With a map window, a cell of a block stored out of memory is not unknown: say so.
     const auto* grid = dynamic_cast<const map::GridMap*>(&m);
     const bool some_out = grid != nullptr && grid->outOfMemoryCount() > 0;
     for (std::size_t i = 0; i < n; ++i) {
@@ -259,7 +259,7 @@ void QueryAnswerer::box(const BoxQuery& q, Answer& a) {
       }
       out.cells.push_back(m.converter().toCoord(k));
     });
-    // With a map window, say how much of the box the answer could not read (issue 22).
+    // With a map window, say how much of the box the answer could not read.
     if (const auto* grid = dynamic_cast<const map::GridMap*>(&m); grid && grid->outOfMemoryCount() > 0) {
       out.blocks_not_in_memory = static_cast<std::uint32_t>(std::min<std::size_t>(
           grid->outOfMemoryIn(lo, hi).size(), std::numeric_limits<std::uint32_t>::max()));

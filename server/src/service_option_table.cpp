@@ -1,17 +1,19 @@
 #include "densemap/server/service_option_table.h"
 
-#include "densemap/cli/common_options.h"
+#include "densemap/dense/dense_option_table.h"
+#include "densemap/map/map_option_table.h"
+#include "densemap/update/update_option_table.h"
 
 namespace densemap::server {
 
-std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
-  std::vector<cli::OptionTable> tables;
+std::vector<options::OptionTable> serviceOptionTables(ServiceOptions& o) {
+  std::vector<options::OptionTable> tables;
   {
-    cli::OptionTable& t = tables.emplace_back("Server");
+    options::OptionTable& t = tables.emplace_back("Server");
     t.add("server-id", o.server_id, "name in statistics and logs");
   }
   {
-    cli::OptionTable& t = tables.emplace_back(
+    options::OptionTable& t = tables.emplace_back(
         "Densify (Ch. 4), a stage before the map: sparse scans re-sampled to a denser beam layout");
     t.add("densify", o.densify.method, "none, iln (trained network; loads its plugin) or bilinear")
         .oneOf({"none", "iln", "bilinear"});
@@ -27,7 +29,7 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
     t.add("densify-threads", o.densify.threads, "threads of the densify network").range(1, 64);
   }
   {
-    cli::OptionTable& t = tables.emplace_back(
+    options::OptionTable& t = tables.emplace_back(
         "Dense layer (Ch. 3), a stage after the exact map; it drops the oldest scans when behind");
     t.add("dense-layer", o.dense.method, "none, akimap or bgk").oneOf({"none", "akimap", "bgk"});
     t.add("dense-resolution", o.dense.resolution, "cell size in metres (0: the map's resolution)")
@@ -42,9 +44,9 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
     t.add("dense-nice", o.dense_nice, "nice value of its threads: it drops scans rather than fall behind")
         .range(0, 19);
   }
-  tables.push_back(cli::kernelLayerOptions(o.dense));
+  tables.push_back(dense::kernelLayerOptionTable(o.dense));
   {
-    cli::OptionTable& t = tables.emplace_back(
+    options::OptionTable& t = tables.emplace_back(
         "Map memory (grid backend): a rolling window and a cap; blocks that leave come back when a scan "
         "reaches them");
     t.add("window-radius", o.window.radius_m,
@@ -73,7 +75,7 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         });
   }
   {
-    cli::OptionTable& t = tables.emplace_back("Pipeline");
+    options::OptionTable& t = tables.emplace_back("Pipeline");
     t.add("robot-queue", o.pipeline.robot_queue_capacity, "scans each robot may have waiting")
         .range(1, 100000);
     t.addChoice(
@@ -103,7 +105,7 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
         .range(-20, 0);
   }
   {
-    cli::OptionTable& t =
+    options::OptionTable& t =
         tables.emplace_back("Storage: save and load requests name files in the map directory, never paths");
     t.add("data-dir", o.data_dir, "the service's data directory");
     t.add("map-dir", o.map_dir, "where saves and loads go (empty: DATA_DIR/maps)");
@@ -111,7 +113,7 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
   }
   {
     auto& d = o.durability;
-    cli::OptionTable& t = tables.emplace_back(
+    options::OptionTable& t = tables.emplace_back(
         "Durability: the journal and snapshots in DATA_DIR; an acknowledged scan survives a crash, kill -9 "
         "or power cut (docs/DURABILITY.md)");
     t.add("journal", d.journal,
@@ -138,7 +140,7 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
           "snapshot's copy and scans fault their pages in again)");
   }
   {
-    cli::OptionTable& t = tables.emplace_back("Shutdown (SIGINT / SIGTERM)");
+    options::OptionTable& t = tables.emplace_back("Shutdown (SIGINT / SIGTERM)");
     t.add("save-on-exit", o.save_on_exit,
           "save the map to this path (.bt or .ot) on shutdown (empty: do not)");
     t.add("drop-on-exit", o.drop_on_exit, "drop queued scans (counted) instead of mapping them first");
@@ -148,10 +150,10 @@ std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& o) {
 
 void validateServiceOptions(const ServiceOptions& options) {
   ServiceOptions copy = options;  // the tables bind to fields; nothing is changed
-  std::vector<cli::OptionTable> tables = serviceOptionTables(copy);
-  tables.push_back(cli::mapOptions(copy.map));
-  tables.push_back(cli::updateOptions(copy.update));
-  for (const cli::OptionTable& t : tables) {
+  std::vector<options::OptionTable> tables = serviceOptionTables(copy);
+  tables.push_back(map::mapOptionTable(copy.map));
+  tables.push_back(update::updateOptionTable(copy.update));
+  for (const options::OptionTable& t : tables) {
     if (const std::string why = t.validate(); !why.empty()) throw std::invalid_argument(why);
   }
 }

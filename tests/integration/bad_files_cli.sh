@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# densemap-map and densemap-replay on hostile files (issue 18): each must exit 1 with an error naming the
+# densemap-map and densemap-replay on hostile files: each must exit 1 with an error naming the
 # file, never crash (exit >= 128) and never map the file (exit 0).
 #   bad_files_cli.sh BUILD_DIR
 set -uo pipefail

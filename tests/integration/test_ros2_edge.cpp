@@ -11,10 +11,10 @@
 
 #include "densemap/client/ros2_player.h"
 #include "densemap/io/lidar_simulator.h"
-#include "densemap/io/ros_bag_source.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_file.h"
 #include "densemap/ros2/bag_reader.h"
+#include "densemap/ros2/bag_scan_source.h"
 #include "densemap/ros2/message_codec.h"
 #include "densemap/ros2/scan_messages.h"
 #include "densemap/ros2/sensor_pose.h"
@@ -91,9 +91,9 @@ void expectBagServedAsOffline(const std::string& bag, int domain, const std::str
   EXPECT_EQ(c.clouds_submitted, clouds);
   EXPECT_EQ(c.clouds_waited_out, 0u);
   EXPECT_EQ(c.clouds_undecodable, 0u);
-  io::SourceOptions so;
+  ros2::BagSourceOptions so;
   so.frames.fixed_frame = frame;
-  io::RosBagSource offline(bag, so);
+  ros2::BagScanSource offline(bag, so);
   expectSameMap(*served(server), *offlineOf(readScans(offline, 0, offline.size() - 1)));
 }
 

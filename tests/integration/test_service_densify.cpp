@@ -6,6 +6,7 @@
 
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/densify/range_upsampler.h"
+#include "densemap/server/densify_stage.h"
 #include "service_harness.h"
 
 namespace densemap::test {

@@ -42,7 +42,7 @@ TEST(DdsOptions, FlagsFillTheOptionsAndRejectBadPeers) {
                                 "--domain",           "7",           "--udp-only"};
   std::reverse(args.begin(), args.end());
   app.parse(args);
-  cli::finishOptions({&table});
+  options::finishOptions({&table});
   EXPECT_EQ(o.domain, 7);
   EXPECT_TRUE(o.udp_only);
   EXPECT_TRUE(o.no_multicast);
@@ -55,7 +55,7 @@ TEST(DdsOptions, FlagsFillTheOptionsAndRejectBadPeers) {
   std::vector<std::string> wrong{"host-a", "--dds-peers"};
   bad.parse(wrong);
   try {
-    cli::finishOptions({&bad_table});
+    options::finishOptions({&bad_table});
     ADD_FAILURE() << "a peer that is not an IPv4 address was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("--dds-peers"), std::string::npos) << e.what();

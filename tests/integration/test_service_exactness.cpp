@@ -9,6 +9,7 @@
 #include <octomap/AbstractOcTree.h>
 
 #include "densemap/io/lidar_simulator.h"
+#include "densemap/sources/open_source.h"
 #include "service_harness.h"
 #include "test_data.h"
 #include "test_simulator.h"
@@ -74,7 +75,7 @@ TEST(ServiceExactness, TwoRobotsWithTheirOwnOriginsMatchTheOfflineMapInServedOrd
 
 TEST(ServiceExactness, La3dmStructuredMatchesOfflineMap) {
   DENSEMAP_REQUIRE_DATA("la3dm/sim_structured");
-  auto src = io::openSource(dataDir() + "/la3dm/sim_structured");
+  auto src = sources::openSource(dataDir() + "/la3dm/sim_structured");
   auto o = serverOptions(113);
   o.map.resolution = 0.1;
   ServiceHarness h(o);
@@ -85,7 +86,7 @@ TEST(ServiceExactness, La3dmStructuredMatchesOfflineMap) {
 
 TEST(ServiceExactness, La3dmUnstructuredOctreeMatchesOfflineMap) {
   DENSEMAP_REQUIRE_DATA("la3dm/sim_unstructured");
-  auto src = io::openSource(dataDir() + "/la3dm/sim_unstructured");
+  auto src = sources::openSource(dataDir() + "/la3dm/sim_unstructured");
   auto o = serverOptions(114);
   o.map.resolution = 0.1;
   o.map.backend = "octree";
@@ -97,7 +98,7 @@ TEST(ServiceExactness, La3dmUnstructuredOctreeMatchesOfflineMap) {
 
 TEST(ServiceExactness, Kitti00FirstScansMatchOfflineMap) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto src = io::openSource(dataDir() + "/kitti00");
+  auto src = sources::openSource(dataDir() + "/kitti00");
   auto o = serverOptions(115);
   ServiceHarness h(o);
   const auto scans = readScans(*src, 0, 4);

@@ -1,4 +1,4 @@
-// One map per namespace (issue 18): a second server on the same topics is seen by both and refuses to
+// One map per namespace: a second server on the same topics is seen by both and refuses to
 // serve; --namespace keeps independent maps apart on one domain; replies and acknowledgements say which
 // server sent them.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Queries under load (issue 18): with a robot at full rate and four clients querying back to back, every
+// Queries under load: with a robot at full rate and four clients querying back to back, every
 // query gets an answer — a result, or STATUS_BUSY when the bounded backlog is full — within the deadline;
 // and the memory a million-point query takes is given back once it is answered.
 #include <signal.h>

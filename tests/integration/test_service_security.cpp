@@ -1,4 +1,4 @@
-// DDS-Security (issue 21): a server with an identity from tools/make-security.sh lets in only participants
+// DDS-Security: a server with an identity from tools/make-security.sh lets in only participants
 // with an identity from the same CA, each as far as its role's permissions go; expired, revoked,
 // wrong-CA and tampered identities are refused; replies reach only the client that asked.
 #include <cstdlib>

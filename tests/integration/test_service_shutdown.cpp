@@ -1,4 +1,4 @@
-// Shutdown accounts for every scan (issue 18): a robot keeps sending while the server stops; every scan
+// Shutdown accounts for every scan: a robot keeps sending while the server stops; every scan
 // the server took from DDS ends mapped, dropped or rejected and its acknowledgement reaches the robot.
 // Draining (the default), none is dropped, not even the one waiting for space in a full queue.
 #include <atomic>
@@ -20,7 +20,7 @@ struct ShutdownCounts {
 /// meanwhile, and counts what each side saw.
 ShutdownCounts sendThroughShutdown(int domain, bool drop_on_exit, std::size_t total, std::size_t stop_after) {
   auto o = serverOptions(domain);
-  o.pipeline.robot_queue_capacity = 2;  // the intake soon waits for space: the case issue 18 names
+  o.pipeline.robot_queue_capacity = 2;  // the intake soon waits for space: the case that matters
   o.drop_on_exit = drop_on_exit;
   ServiceHarness h(o);
   io::LidarSimulatorOptions sim_options;

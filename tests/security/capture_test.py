@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """A capture of the test's own DDS traffic (tshark on lo, the test's domain's ports only) holds the plaintext
-coordinates of a known scan in plain mode, and neither them nor the discovery data in secure mode (issue 21).
+coordinates of a known scan in plain mode, and neither them nor the discovery data in secure mode.
 
 A robot (densemap-replay) sends one scan read from a PCD file with known points to a densemap-server over UDP
 on 127.0.0.1 (--loopback --udp-only: no shared memory, which a capture cannot see). The pattern searched for

@@ -1,4 +1,4 @@
-// densemap-bench's references (issue 24): the benchmark runs densemap-octomap-reference, its octree maps
+// densemap-bench's references: the benchmark runs densemap-octomap-reference, its octree maps
 // equal the map that process builds, and the reference program refuses corrupt or foreign input with a
 // message instead of crashing; the default method is judged against the best of the four and that
 // method's own spread in the same run.

@@ -1,5 +1,5 @@
 // The compact index of blocks (block_id_map.h): the same answers as a hash map of every block, in a
-// fraction of its memory for blocks stored along a trajectory (issue 22: the window's index must not grow
+// fraction of its memory for blocks stored along a trajectory (the window's index must not grow
 // the server's memory by a hash node per stored block).
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// The store of map blocks out of memory (issue 22's rolling window, durability/block_store.h): files
+// The store of map blocks out of memory (the rolling window, durability/block_store.h): files
 // written once under a version, read back only as regular files within a size limit, collected when no
 // index names them.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// UpdateStats::changed_cells and updated_cells (issue 24): the distinct cells whose value a scan changes
+// UpdateStats::changed_cells and updated_cells: the distinct cells whose value a scan changes
 // (the floor of any exact method's work) and those it gives evidence. Checked against the map itself (on
 // an empty map every updated cell becomes known) and across the four methods (the same cells change
 // whichever walk found them).

@@ -1,4 +1,4 @@
-// Compact cells (issue 22, palette_block.h): a byte per voxel into the block's distinct values, bit for bit.
+// Compact cells (palette_block.h): a byte per voxel into the block's distinct values, bit for bit.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -10,6 +10,7 @@
 #include "densemap/io/scan_source.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "test_data.h"
 #include "test_simulator.h"
@@ -194,7 +195,7 @@ TEST(CompactCells, TheGridTakesFewBytesPerKnownCellOnTheSimulator) {
 
 TEST(CompactCells, Kitti00FirstTenScansAtTwentyCentimetresFitInTenMegabytes) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto src = io::openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   GridMap grid(0.2);
   update::UpdateEngine engine;
   for (std::size_t i = 0; i < 10; ++i) {
@@ -204,7 +205,7 @@ TEST(CompactCells, Kitti00FirstTenScansAtTwentyCentimetresFitInTenMegabytes) {
   std::printf("kitti00 0-9 at 0.2 m: %zu known cells, %.2f MB, %.2f bytes per known cell\n",
               grid.knownCells(), static_cast<double>(grid.memoryBytes()) / 1e6,
               static_cast<double>(grid.memoryBytes()) / static_cast<double>(grid.knownCells()));
-  EXPECT_EQ(grid.knownCells(), 1341992u) << "the same cells as OctoMap (issue 22's count)";
+  EXPECT_EQ(grid.knownCells(), 1341992u) << "the same cells as OctoMap (the count)";
   EXPECT_LT(grid.memoryBytes(), 10'000'000u);
 }
 

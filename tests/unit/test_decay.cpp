@@ -1,4 +1,4 @@
-// Decay (issue 22, decay.h): cells no scan observes again relax toward unknown; observed ones do not.
+// Decay (decay.h): cells no scan observes again relax toward unknown; observed ones do not.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -12,6 +12,7 @@
 #include "densemap/eval/classification_metrics.h"
 #include "densemap/eval/held_out.h"
 #include "densemap/map/grid_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "test_data.h"
 
@@ -163,7 +164,7 @@ struct La3dmScores {
 };
 La3dmScores scoreOnLa3dm(const std::string& scene, double resolution,
                          const std::unique_ptr<KernelLayer>& akimap_layer) {
-  auto src = io::openSource(test::dataDir() + "/la3dm/" + scene);
+  auto src = sources::openSource(test::dataDir() + "/la3dm/" + scene);
   std::mt19937_64 rng(1);
   eval::HeldOutOptions ho;
   ho.end_margin = 0.5 * resolution;
@@ -217,7 +218,7 @@ TEST(KernelLayers, BeatTheExactMapOnLa3dmHeldOutPoints) {
 }
 
 TEST(KernelLayers, AkimapAsTheServerBuildsItBeatsBgkOnLa3dmAtFiveCentimetres) {
-  // Issue 23's goal (docs/BENCHMARKS.md): the dense layer the server builds by default (the factory's
+  // The goal (docs/BENCHMARKS.md): the dense layer the server builds by default (the factory's
   // defaults: --akimap-preset measured) has an AUC above BGK's and the exact map's and an MSE below BGK's,
   // on both scenes at 0.05 m. Only the free-sample spacing is the held-out protocol's (one per cell).
   DENSEMAP_REQUIRE_DATA("la3dm/sim_structured");

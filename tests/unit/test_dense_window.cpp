@@ -1,4 +1,4 @@
-// The map window over the dense layer (issue 22): with --window-radius, dense blocks farther than the
+// The map window over the dense layer: with --window-radius, dense blocks farther than the
 // radius from every robot are dropped after each scan, so the layer's memory follows the robots instead of
 // the distance driven; within the radius it is exactly the layer the same scans build without a window.
 #include <gtest/gtest.h>

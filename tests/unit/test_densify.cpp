@@ -11,6 +11,7 @@
 #include "densemap/densify/densify_dataset.h"
 #include "densemap/densify/iln_upsampler.h"
 #include "densemap/io/lidar_simulator.h"
+#include "densemap/sources/open_source.h"
 #include "test_data.h"
 #include "test_simulator.h"
 
@@ -255,11 +256,11 @@ std::pair<densify::ReconstructionScore, densify::ReconstructionScore> scoreOnKit
 
 TEST(Iln, ShippedWeightsBeatBilinearOnRealScansTheyNeverSaw) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  // Issue 23: the shipped weights saw the simulator only (its HDL-64E model, io/spinning_lidar_model.h),
+  // the shipped weights saw the simulator only (its HDL-64E model, io/spinning_lidar_model.h),
   // never a real scan, and must beat bilinear on real KITTI scans in range (MAE) and points (F1).
   auto net = densify::IlnUpsampler::load(shippedWeights());
   densify::IlnUpsampler::setThreads(2);
-  auto src = io::openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   const auto [iln, bil] = scoreOnKittiHeldOut(net, *src);  // scans 50-59, never trained on
   EXPECT_LT(iln.mae_m, bil.mae_m);
   EXPECT_GT(iln.f1, bil.f1);
@@ -274,7 +275,7 @@ TEST(Iln, FineTuningOnKittiImprovesTheShippedWeightsOnHeldOutScans) {
   // thread: beside another ctest job, two threads made 600 steps take 8 minutes.
   auto net = densify::IlnUpsampler::load(shippedWeights());
   densify::IlnUpsampler::setThreads(1);
-  auto src = io::openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   const auto [shipped, bil] = scoreOnKittiHeldOut(net, *src);
   net.restartTraining();
   std::vector<densify::RangeImagePair> train;

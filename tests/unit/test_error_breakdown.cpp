@@ -1,4 +1,4 @@
-// densify::ErrorBreakdown: an upsampler's range error split by where the pixel is (issue 23).
+// densify::ErrorBreakdown: an upsampler's range error split by where the pixel is.
 #include <gtest/gtest.h>
 
 #include <map>

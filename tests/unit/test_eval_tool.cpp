@@ -64,7 +64,7 @@ double heldOutAuc(const std::string& densify) {
 }
 
 TEST(EvalTool, IlnDensifiedSixteenRealBeamsMapBetterThanBilinearAndRaw) {
-  // Issue 23 (Sec. 4.4.5's protocol): the map from every 4th beam of kitti00 scans 50-59, densified to 64
+  // (Sec. 4.4.5's protocol): the map from every 4th beam of kitti00 scans 50-59, densified to 64
   // beams with the shipped (simulator-only) ILN, scores a higher held-out AUC on the other beams' points
   // than the same beams densified bilinearly or mapped raw.
   DENSEMAP_REQUIRE_DATA("kitti00");

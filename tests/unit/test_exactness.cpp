@@ -11,6 +11,7 @@
 #include "densemap/io/lidar_simulator.h"
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "test_data.h"
 #include "test_simulator.h"
@@ -95,25 +96,25 @@ class ExactnessOnData : public ::testing::TestWithParam<double> {};
 
 TEST_P(ExactnessOnData, Kitti00FirstScans) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto src = io::openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   checkCase(*src, {"kitti00", 0, 9, GetParam()});
 }
 
 TEST_P(ExactnessOnData, Hilti2023) {
   DENSEMAP_REQUIRE_DATA("hilti2023");
-  auto src = io::openSource(test::dataDir() + "/hilti2023");
+  auto src = sources::openSource(test::dataDir() + "/hilti2023");
   checkCase(*src, {"hilti2023", 0, src->size() - 1, GetParam()});
 }
 
 TEST_P(ExactnessOnData, La3dmStructured) {
   DENSEMAP_REQUIRE_DATA("la3dm/sim_structured");
-  auto src = io::openSource(test::dataDir() + "/la3dm/sim_structured");
+  auto src = sources::openSource(test::dataDir() + "/la3dm/sim_structured");
   checkCase(*src, {"la3dm", 0, src->size() - 1, GetParam()});
 }
 
 TEST_P(ExactnessOnData, La3dmUnstructured) {
   DENSEMAP_REQUIRE_DATA("la3dm/sim_unstructured");
-  auto src = io::openSource(test::dataDir() + "/la3dm/sim_unstructured");
+  auto src = sources::openSource(test::dataDir() + "/la3dm/sim_unstructured");
   checkCase(*src, {"la3dm-unstructured", 0, src->size() - 1, GetParam()});
 }
 

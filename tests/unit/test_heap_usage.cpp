@@ -48,7 +48,10 @@ TEST(HeapUsage, FreedSmallBlocksAreKeptAsFreeWhenRetained) {
   const auto after = densemap::util::heapUsage();
   // Given back to the allocator, not to the kernel: live bytes fall, kept bytes rise by as much.
   EXPECT_LE(after.in_use_bytes + 20000 * 1000, holding.in_use_bytes);
-  EXPECT_GE(after.free_bytes, before.free_bytes + 20000 * 1000);
+  // The blocks may first fill what was free before (static initialisers leave some), so the kept bytes
+  // reach the freed total, not that total on top of the earlier free bytes.
+  EXPECT_GE(after.free_bytes, std::size_t{20000} * 1000);
+  EXPECT_GE(after.free_bytes, before.free_bytes);
   densemap::util::returnFreedMemory();
   EXPECT_LT(densemap::util::heapUsage().free_bytes, after.free_bytes);
 }

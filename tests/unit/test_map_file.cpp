@@ -11,6 +11,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/map_file.h"
 #include "densemap/map/octree_map.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "test_data.h"
 #include "test_simulator.h"
@@ -77,7 +78,7 @@ TEST(MapFile, SimulatorMapsRoundTripInBothFormats) {
 
 TEST(MapFile, Kitti00MapsRoundTripInBothFormats) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  const auto src = io::openSource(dataDir() + "/kitti00");
+  const auto src = sources::openSource(dataDir() + "/kitti00");
   expectRoundTrips(*buildMap("grid", 0.2, *src, 10));
   expectRoundTrips(*buildMap("octree", 0.2, *src, 10));
 }

@@ -13,6 +13,7 @@
 #include "densemap/map/grid_map.h"
 #include "densemap/map/octree_map.h"
 #include "densemap/server/map_service.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/update_engine.h"
 #include "map_service_helpers.h"
 #include "test_data.h"
@@ -73,7 +74,7 @@ TEST(MapService, ScansMapExactlyAndEveryOutcomeIsHeard) {
 
 TEST(MapService, Kitti00ScansMapExactly) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  const auto src = io::openSource(dataDir() + "/kitti00");
+  const auto src = sources::openSource(dataDir() + "/kitti00");
   std::vector<io::Scan> scans;
   for (std::size_t i = 0; i < 5; ++i) scans.push_back(src->read(i));
   MapService service(options("kitti"));
@@ -243,7 +244,7 @@ TEST(MapService, SavedMapsLoadBackAndAnswerIdentically) { expectSavesLoadBack(si
 
 TEST(MapService, Kitti00SavedMapsLoadBackAndAnswerIdentically) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  const auto src = io::openSource(dataDir() + "/kitti00");
+  const auto src = sources::openSource(dataDir() + "/kitti00");
   std::vector<io::Scan> scans;
   for (std::size_t i = 0; i < 3; ++i) scans.push_back(src->read(i));
   expectSavesLoadBack(scans, "kitti");

@@ -1,4 +1,4 @@
-// Blocks out of memory (issue 22's rolling window, first part): a block leaves memory as bytes and comes
+// Blocks out of memory (the rolling window, first part): a block leaves memory as bytes and comes
 // back bit for bit; a map whose far blocks left and came back before the scans reached them is the map
 // that kept them; a scan never overwrites a block that is out of memory.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// update/method_chooser.h and the engine's default method `fastest` (issue 24): cheap methods tried first,
+// update/method_chooser.h and the engine's default method `fastest`: cheap methods tried first,
 // the measured fastest chosen, losers re-tried ever less often, a change of data followed; and the map it
 // builds is the baseline's.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// The PCD parser (core/src/io/pcd_file.cpp): files PCL writes in each of its encodings read exactly as PCL
-// reads them, the real data's PCDs too, and every hostile file of issue 18 is an error that names the file
+// The PCD parser (core/io/src/pcd_file.cpp): files PCL writes in each of its encodings read exactly as PCL
+// reads them, the real data's PCDs too, and every hostile file is an error that names the file
 // and the field instead of a crash, an allocation of what the header claims, or points at (0,0,0).
 #include <sys/resource.h>
 

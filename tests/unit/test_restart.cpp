@@ -14,6 +14,7 @@
 #include "densemap/map/map_file.h"
 #include "densemap/server/durability/journal_segment.h"
 #include "densemap/server/map_service.h"
+#include "densemap/sources/open_source.h"
 #include "map_service_helpers.h"
 #include "temp_dir.h"
 #include "test_data.h"
@@ -129,7 +130,7 @@ TEST(Restart, SnapshotPlusJournalIsTheOfflineMapOctreeNodeForNode) {
 
 TEST(Restart, Kitti00IsTheOfflineMapNodeForNode) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  const auto src = io::openSource(dataDir() + "/kitti00");
+  const auto src = sources::openSource(dataDir() + "/kitti00");
   std::vector<io::Scan> scans;
   for (std::size_t i = 0; i < 6; ++i) scans.push_back(src->read(i));
   expectRestartIsExact(scans, "octree");

@@ -6,12 +6,13 @@
 #include <gtest/gtest.h>
 
 #include "densemap/io/lidar_simulator.h"
-#include "densemap/io/ros_bag_source.h"
 #include "densemap/ros2/bag_reader.h"
+#include "densemap/ros2/bag_scan_source.h"
 #include "densemap/ros2/mcap_reader.h"
 #include "densemap/ros2/message_codec.h"
 #include "densemap/ros2/point_cloud_fields.h"
 #include "densemap/ros2/scan_messages.h"
+#include "densemap/sources/open_source.h"
 #include "mcap_writer.h"
 #include "temp_dir.h"
 #include "test_data.h"
@@ -89,8 +90,8 @@ TEST(RosBags, EveryMcapChunkingReadsTheSameMessages) {
 TEST(RosBags, KittiBagPosesComeFromTheTfChain) {
   DENSEMAP_REQUIRE_DATA(kMcap);
   DENSEMAP_REQUIRE_DATA("kitti00");
-  RosBagSource bag(data(kMcap), {});
-  const auto sequence = openSource(data("kitti00"));
+  ros2::BagScanSource bag(data(kMcap), {});
+  const auto sequence = sources::openSource(data("kitti00"));
   ASSERT_EQ(bag.size(), 20u);
   for (std::size_t i = 0; i < bag.size(); ++i) {
     const Scan b = bag.read(i);
@@ -104,8 +105,8 @@ TEST(RosBags, KittiBagPosesComeFromTheTfChain) {
 
 TEST(RosBags, SqliteAndMcapGiveBitIdenticalScans) {
   DENSEMAP_REQUIRE_DATA(kMcap);
-  RosBagSource mcap(data(kMcap), {});
-  RosBagSource sqlite(data(kSqlite), {});
+  ros2::BagScanSource mcap(data(kMcap), {});
+  ros2::BagScanSource sqlite(data(kSqlite), {});
   ASSERT_EQ(mcap.size(), sqlite.size());
   for (std::size_t i = 0; i < mcap.size(); i += 7) {
     EXPECT_EQ(mcap.read(i).points, sqlite.read(i).points);
@@ -131,15 +132,15 @@ TEST(RosBags, Os1OrganisedCloudWithPaddedFieldsAndAStaticChain) {
   EXPECT_EQ(clouds, 2u);
   // Its TF tree is os1_sensor -> os1_lidar (static): no 'map', so the default frame is an error that says so.
   try {
-    RosBagSource s(data(kOs1), {});
+    ros2::BagScanSource s(data(kOs1), {});
     ADD_FAILURE() << "opened without a map frame";
   } catch (const SourceError& e) {
     EXPECT_NE(std::string(e.what()).find("frame 'map' is not in the TF tree"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("--frame-id"), std::string::npos);
   }
-  SourceOptions o;
+  ros2::BagSourceOptions o;
   o.frames.fixed_frame = "os1_sensor";
-  RosBagSource s(data(kOs1), o);
+  ros2::BagScanSource s(data(kOs1), o);
   ASSERT_EQ(s.size(), 2u);
   const Scan scan = s.read(0);
   EXPECT_GT(scan.points.size(), 50000u);
@@ -164,7 +165,7 @@ TEST(RosBags, TheSimulatorRecordedAsABagReadsBackExactly) {
   const std::string path = dir.path.string() + "/sim.mcap";
   std::ofstream(path, std::ios::binary)
       .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-  const auto source = openSource(path);
+  const auto source = sources::openSource(path);
   ASSERT_EQ(source->size(), sim.size());
   for (std::size_t i = 0; i < sim.size(); ++i) {
     const Scan expected = sim.read(i);
@@ -203,11 +204,11 @@ TEST(RosBags, RecordedBytesReEncodeIdentically) {
 
 TEST(RosBags, ChoosingTheCloudTopic) {
   DENSEMAP_REQUIRE_DATA(kMcap);
-  SourceOptions o;
+  ros2::BagSourceOptions o;
   o.frames.cloud_topic = "/tf";
-  EXPECT_THROW(RosBagSource(data(kMcap), o), SourceError);
+  EXPECT_THROW(ros2::BagScanSource(data(kMcap), o), SourceError);
   o.frames.cloud_topic = "/points";
-  EXPECT_EQ(RosBagSource(data(kMcap), o).size(), 20u);
+  EXPECT_EQ(ros2::BagScanSource(data(kMcap), o).size(), 20u);
 }
 
 TEST(RosBagDamage, ATornMcapNamesTheOffset) {
@@ -257,13 +258,13 @@ TEST(RosBagDamage, NotAnMcapAndACorruptSqliteAreErrors) {
   test::TempDir dir;
   const std::string db = dir.path.string() + "/broken.db3";
   std::ofstream(db) << "SQLite format 3 but not really a database, just text";
-  EXPECT_THROW(openSource(db), SourceError);
+  EXPECT_THROW((void)sources::openSource(db), SourceError);
   const std::string bag = dir.path.string() + "/bag";
   fs::create_directory(bag);
   std::ofstream(bag + "/metadata.yaml") << "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n"
                                            "  relative_file_paths:\n    - ../../etc/passwd\n";
   try {
-    openSource(bag);
+    (void)sources::openSource(bag);
     ADD_FAILURE() << "opened";
   } catch (const SourceError& e) {
     EXPECT_NE(std::string(e.what()).find("outside the bag's directory"), std::string::npos) << e.what();
@@ -278,7 +279,7 @@ TEST(RosBagDamage, ATruncatedSqliteBagIsAnError) {
   fs::resize_file(db, fs::file_size(db) / 3);
   EXPECT_THROW(
       {
-        const auto s = openSource(db);
+        const auto s = sources::openSource(db);
         for (std::size_t i = 0; i < s->size(); ++i) s->read(i);
       },
       SourceError);

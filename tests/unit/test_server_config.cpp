@@ -8,13 +8,13 @@
 #include <CLI/CLI.hpp>
 
 #include "densemap/cli/option_cli.h"
-#include "densemap/server/dds_edge/server_config.h"
+#include "densemap/server/app/server_config.h"
 #include "densemap/server/map_service.h"
 
 namespace densemap::test {
 namespace {
 
-using server::dds_edge::ServerConfig;
+using server::app::ServerConfig;
 
 std::string readFile(const std::string& path) {
   std::ifstream in(path);
@@ -26,8 +26,8 @@ std::string readFile(const std::string& path) {
 /// Parses `args` (and a --config file among them) into a fresh configuration.
 ServerConfig parse(std::vector<std::string> args) {
   ServerConfig c;
-  auto tables = server::dds_edge::serverOptionTables(c);
-  std::vector<cli::OptionTable*> list;
+  auto tables = server::app::serverOptionTables(c);
+  std::vector<options::OptionTable*> list;
   for (auto& t : tables) list.push_back(&t);
   CLI::App app;
   app.set_config("--config");
@@ -35,18 +35,18 @@ ServerConfig parse(std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());
   app.parse(args);
   cli::markGiven(app, list);
-  cli::finishOptions(list);
+  options::finishOptions(list);
   return c;
 }
 
 TEST(ServerConfig, TheShippedFileIsWhatTheTablesGenerate) {
   const std::string shipped = readFile(std::string(DENSEMAP_SOURCE_DIR) + "/config/server.toml");
-  EXPECT_EQ(shipped, server::dds_edge::defaultServerToml())
+  EXPECT_EQ(shipped, server::app::defaultServerToml())
       << "config/server.toml is out of date: ./build/server/densemap-server --print-config > "
          "config/server.toml";
   // Every option appears in it as a key with its default (an empty list commented out).
   ServerConfig c;
-  for (const auto& t : server::dds_edge::serverOptionTables(c))
+  for (const auto& t : server::app::serverOptionTables(c))
     for (const auto& o : t.options()) {
       const bool listed = shipped.find("\n" + o.name + " = " + o.default_text) != std::string::npos ||
                           shipped.find("\n# " + o.name + " = " + o.default_text) != std::string::npos;
@@ -58,12 +58,12 @@ TEST(ServerConfig, TheShippedFileParsesToTheDefaults) {
   const ServerConfig parsed = parse({"--config", std::string(DENSEMAP_SOURCE_DIR) + "/config/server.toml"});
   ServerConfig defaults;
   ServerConfig copy = parsed;
-  auto a = server::dds_edge::serverOptionTables(copy);
-  auto b = server::dds_edge::serverOptionTables(defaults);
+  auto a = server::app::serverOptionTables(copy);
+  auto b = server::app::serverOptionTables(defaults);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i)
     for (std::size_t j = 0; j < a[i].options().size(); ++j)
-      EXPECT_EQ(cli::tomlValue(a[i].options()[j].target), b[i].options()[j].default_text)
+      EXPECT_EQ(options::tomlValue(a[i].options()[j].target), b[i].options()[j].default_text)
           << a[i].options()[j].name;
 }
 

@@ -1,4 +1,4 @@
-// The rolling window and the memory cap in the service (issue 22): blocks far from the robots or past the
+// The rolling window and the memory cap in the service: blocks far from the robots or past the
 // cap leave memory, come back when a scan reaches them, and the map stays the map of every scan: each cell
 // answers exactly the offline map's value, or says it is stored out of memory. Also across a restart.
 #include <gtest/gtest.h>

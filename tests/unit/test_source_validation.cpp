@@ -1,4 +1,4 @@
-// Every source checks what it reads (issue 18): a gap in a numbered sequence is an error (or, with
+// Every source checks what it reads: a gap in a numbered sequence is an error (or, with
 // --allow-gaps, the scans that are there on their own poses), a scan range past the end is an error,
 // poses and calibrations must be rigid transforms and a NaN is reported as NaN, and a scan number too long
 // to be one is named.
@@ -17,6 +17,7 @@
 #include "densemap/io/pcd_file.h"
 #include "densemap/io/scan_source.h"
 #include "densemap/io/sequence_directory_source.h"
+#include "densemap/sources/open_source.h"
 #include "temp_dir.h"
 
 namespace densemap::io {
@@ -66,10 +67,11 @@ std::vector<Scan> writeSequence(const fs::path& dir, const std::vector<int>& num
 TEST(SourceValidation, SequenceGapIsAnErrorUnlessAllowed) {
   TempDir dir;
   const auto written = writeSequence(dir.path, {0, 1, 2, 5, 6});
-  EXPECT_TRUE(throwsSaying([&] { openSource(dir.path.string()); }, {"scan 3 is missing", "--allow-gaps"}));
-  SourceOptions allow;
+  EXPECT_TRUE(throwsSaying([&] { (void)sources::openSource(dir.path.string()); },
+                           {"scan 3 is missing", "--allow-gaps"}));
+  sources::OpenOptions allow;
   allow.allow_gaps = true;
-  const auto src = openSource(dir.path.string(), allow);
+  const auto src = sources::openSource(dir.path.string(), allow);
   ASSERT_EQ(src->size(), 5u);
   // The scans after the gap keep their own clouds and poses.
   for (std::size_t i = 0; i < written.size(); ++i) {
@@ -82,17 +84,19 @@ TEST(SourceValidation, SequenceGapIsAnErrorUnlessAllowed) {
 TEST(SourceValidation, SequenceMissingScanZeroOrPoseFileIsAnError) {
   TempDir dir;
   writeSequence(dir.path / "a", {1, 2});
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "a").string()); }, {"scan 0 is missing"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource((dir.path / "a").string()); }, {"scan 0 is missing"}));
   writeSequence(dir.path / "b", {0, 1});
   fs::remove(dir.path / "b" / "poses" / "1.txt");
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "b").string()); }, {"1.txt", "missing"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource((dir.path / "b").string()); }, {"1.txt", "missing"}));
 }
 
 TEST(SourceValidation, EmptyCloudInASequenceIsAnErrorNotACrash) {
   TempDir dir;
   writeSequence(dir.path, {0, 1});
   std::ofstream(dir.path / "clouds" / "1.pcd", std::ios::trunc).close();
-  const auto src = openSource(dir.path.string());
+  const auto src = sources::openSource(dir.path.string());
   EXPECT_TRUE(throwsSaying([&] { src->read(1); }, {"1.pcd", "empty"}));
 }
 
@@ -143,19 +147,22 @@ TEST(SourceValidation, KittiPosesAndCalibrationMustBeRigid) {
   TempDir dir;
   writeKitti(dir.path / "ok", kIdentity34,
              {kIdentity34, "1 0 0 1 0 1 0 0 0 0 1 0", "1 0 0 2 0 1 0 0 0 0 1 0"});
-  EXPECT_EQ(openSource((dir.path / "ok").string())->read(2).pose.translation().x(), 2.0);
+  EXPECT_EQ(sources::openSource((dir.path / "ok").string())->read(2).pose.translation().x(), 2.0);
   writeKitti(dir.path / "scaled", kIdentity34, {kIdentity34, "5 0 0 1 0 5 0 0 0 0 5 0", kIdentity34});
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "scaled").string()); },
+  EXPECT_TRUE(throwsSaying([&] { (void)sources::openSource((dir.path / "scaled").string()); },
                            {"poses.txt: line 2", "orthonormal"}));
   writeKitti(dir.path / "zero_tr", "0 0 0 0 0 0 0 0 0 0 0 0", {kIdentity34, kIdentity34, kIdentity34});
-  EXPECT_TRUE(
-      throwsSaying([&] { openSource((dir.path / "zero_tr").string()); }, {"calib.txt", "Tr", "orthonormal"}));
+  EXPECT_TRUE(throwsSaying([&] { (void)sources::openSource((dir.path / "zero_tr").string()); },
+                           {"calib.txt", "Tr", "orthonormal"}));
   writeKitti(dir.path / "nan", kIdentity34, {kIdentity34, "1 0 0 nan 0 1 0 0 0 0 1 0", kIdentity34});
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "nan").string()); }, {"line 2", "is nan"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource((dir.path / "nan").string()); }, {"line 2", "is nan"}));
   writeKitti(dir.path / "blank", kIdentity34, {kIdentity34, "", kIdentity34, kIdentity34});
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "blank").string()); }, {"line 2 is blank"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource((dir.path / "blank").string()); }, {"line 2 is blank"}));
   writeKitti(dir.path / "short", kIdentity34, {kIdentity34, kIdentity34});
-  EXPECT_TRUE(throwsSaying([&] { openSource((dir.path / "short").string()); }, {"2 poses", "scan 2"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource((dir.path / "short").string()); }, {"2 poses", "scan 2"}));
 }
 
 TEST(SourceValidation, KittiGapIsAnErrorAndAllowedGapsKeepTheirPoseLines) {
@@ -163,10 +170,11 @@ TEST(SourceValidation, KittiGapIsAnErrorAndAllowedGapsKeepTheirPoseLines) {
   const std::vector<std::string> poses = {kIdentity34, "1 0 0 1 0 1 0 0 0 0 1 0", "1 0 0 2 0 1 0 0 0 0 1 0",
                                           "1 0 0 3 0 1 0 0 0 0 1 0"};
   writeKitti(dir.path, kIdentity34, poses, {0, 1, 3});
-  EXPECT_TRUE(throwsSaying([&] { openSource(dir.path.string()); }, {"scan 2 is missing", "--allow-gaps"}));
-  SourceOptions allow;
+  EXPECT_TRUE(throwsSaying([&] { (void)sources::openSource(dir.path.string()); },
+                           {"scan 2 is missing", "--allow-gaps"}));
+  sources::OpenOptions allow;
   allow.allow_gaps = true;
-  const auto src = openSource(dir.path.string(), allow);
+  const auto src = sources::openSource(dir.path.string(), allow);
   ASSERT_EQ(src->size(), 3u);
   EXPECT_EQ(src->read(2).pose.translation().x(), 3.0) << "velodyne/000003.bin is on pose line 3, not line 2";
   EXPECT_EQ(src->read(2).points[0].x(), 4.0f);
@@ -194,11 +202,12 @@ TEST(SourceValidation, NumberedNamesAndHugeIndices) {
   TempDir dir;
   writePcd((dir.path / "scene_1.pcd").string(), {{1, 2, 3}});
   writePcd((dir.path / "scene_123456789012345678901234567890.pcd").string(), {{1, 2, 3}});
-  EXPECT_TRUE(throwsSaying([&] { openSource(dir.path.string()); },
+  EXPECT_TRUE(throwsSaying([&] { (void)sources::openSource(dir.path.string()); },
                            {"scene_123456789012345678901234567890", "digits"}));
   fs::remove(dir.path / "scene_123456789012345678901234567890.pcd");
   writePcd((dir.path / "other_2.pcd").string(), {{1, 2, 3}});
-  EXPECT_TRUE(throwsSaying([&] { openSource(dir.path.string()); }, {"one sequence per directory"}));
+  EXPECT_TRUE(
+      throwsSaying([&] { (void)sources::openSource(dir.path.string()); }, {"one sequence per directory"}));
 }
 
 }  // namespace

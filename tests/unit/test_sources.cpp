@@ -13,6 +13,7 @@
 #include "densemap/io/lidar_simulator.h"
 #include "densemap/io/scan_graph_source.h"
 #include "densemap/io/scan_source.h"
+#include "densemap/sources/open_source.h"
 #include "temp_dir.h"
 #include "test_data.h"
 
@@ -33,7 +34,7 @@ void expectErrorNaming(const std::function<void()>& f, const std::string& name) 
 
 TEST(Sources, SequenceDirectoryKitti) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto src = openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   EXPECT_EQ(src->size(), 60u);
   const Scan s0 = src->read(0);
   EXPECT_EQ(s0.points.size(), 124668u);
@@ -46,14 +47,14 @@ TEST(Sources, SequenceDirectoryKitti) {
 
 TEST(Sources, SequenceDirectoryHilti) {
   DENSEMAP_REQUIRE_DATA("hilti2023");
-  auto src = openSource(test::dataDir() + "/hilti2023");
+  auto src = sources::openSource(test::dataDir() + "/hilti2023");
   EXPECT_EQ(src->size(), 30u);
   EXPECT_EQ(src->read(0).points.size(), 22096u);
 }
 
 TEST(Sources, La3dmViewpointPcd) {
   DENSEMAP_REQUIRE_DATA("la3dm/sim_structured");
-  auto src = openSource(test::dataDir() + "/la3dm/sim_structured");
+  auto src = sources::openSource(test::dataDir() + "/la3dm/sim_structured");
   EXPECT_EQ(src->size(), 12u);
   const Scan s = src->read(0);
   EXPECT_EQ(s.frame, PointFrame::kWorld);
@@ -66,14 +67,14 @@ TEST(Sources, La3dmViewpointPcd) {
 
 TEST(Sources, OctomapScanGraph) {
   DENSEMAP_REQUIRE_DATA("octomap/spherical_scan.graph");
-  auto src = openSource(test::dataDir() + "/octomap/spherical_scan.graph");
+  auto src = sources::openSource(test::dataDir() + "/octomap/spherical_scan.graph");
   ASSERT_EQ(src->size(), 1u);
   EXPECT_EQ(src->read(0).points.size(), 10201u);
 }
 
 TEST(Sources, KittiOdometryLayoutWrittenFromKitti00) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto seq = openSource(test::dataDir() + "/kitti00");
+  auto seq = sources::openSource(test::dataDir() + "/kitti00");
   TempDir dir;
   fs::create_directories(dir.path / "velodyne");
   // KITTI 00's velodyne -> camera calibration.
@@ -108,7 +109,7 @@ TEST(Sources, KittiOdometryLayoutWrittenFromKitti00) {
     poses << '\n';
   }
   poses.close();
-  auto kitti = openSource(dir.path.string());
+  auto kitti = sources::openSource(dir.path.string());
   ASSERT_EQ(kitti->size(), 3u);
   for (std::size_t i = 0; i < 3; ++i) {
     const Scan s = kitti->read(i);
@@ -157,9 +158,9 @@ TEST(Sources, SimulatorRendersOtherBeamCounts) {
 }
 
 TEST(Sources, SimulatorSpecErrors) {
-  EXPECT_THROW(openSource("sim:beams=abc"), SourceError);
-  EXPECT_THROW(openSource("sim:colour=3"), SourceError);
-  EXPECT_EQ(openSource("sim:scans=3,beams=8")->size(), 3u);
+  EXPECT_THROW((void)sources::openSource("sim:beams=abc"), SourceError);
+  EXPECT_THROW((void)sources::openSource("sim:colour=3"), SourceError);
+  EXPECT_EQ(sources::openSource("sim:scans=3,beams=8")->size(), 3u);
 }
 
 TEST(Sources, CorruptFilesGiveErrorsNamingTheFile) {
@@ -175,7 +176,7 @@ TEST(Sources, CorruptFilesGiveErrorsNamingTheFile) {
     std::ofstream pose(dir.path / "seq" / "poses" / "0.txt");
     pose << "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
   }
-  auto seq = openSource((dir.path / "seq").string());
+  auto seq = sources::openSource((dir.path / "seq").string());
   expectErrorNaming([&] { seq->read(0); }, "0.pcd");
   // Bad pose file.
   {
@@ -185,7 +186,7 @@ TEST(Sources, CorruptFilesGiveErrorsNamingTheFile) {
     std::ofstream pose(dir.path / "seq" / "poses" / "1.txt");
     pose << "1 0 0 0\n0 1 0 nan_here\n";
   }
-  auto seq2 = openSource((dir.path / "seq").string());
+  auto seq2 = sources::openSource((dir.path / "seq").string());
   expectErrorNaming([&] { seq2->read(1); }, "1.txt");
   // Garbage scan graph: a huge node count.
   {
@@ -194,9 +195,9 @@ TEST(Sources, CorruptFilesGiveErrorsNamingTheFile) {
     g.write(reinterpret_cast<const char*>(&nodes), 4);
     g << "garbage";
   }
-  expectErrorNaming([&] { openSource((dir.path / "bad.graph").string()); }, "bad.graph");
+  expectErrorNaming([&] { (void)sources::openSource((dir.path / "bad.graph").string()); }, "bad.graph");
   // Missing path.
-  expectErrorNaming([&] { openSource((dir.path / "nope").string()); }, "nope");
+  expectErrorNaming([&] { (void)sources::openSource((dir.path / "nope").string()); }, "nope");
 }
 
 TEST(Sources, TruncatedRealPcd) {
@@ -207,7 +208,7 @@ TEST(Sources, TruncatedRealPcd) {
   fs::copy_file(test::dataDir() + "/kitti00/clouds/0.pcd", dir.path / "clouds" / "0.pcd");
   fs::copy_file(test::dataDir() + "/kitti00/poses/0.txt", dir.path / "poses" / "0.txt");
   fs::resize_file(dir.path / "clouds" / "0.pcd", fs::file_size(dir.path / "clouds" / "0.pcd") / 2);
-  auto src = openSource(dir.path.string());
+  auto src = sources::openSource(dir.path.string());
   expectErrorNaming([&] { src->read(0); }, "0.pcd");
 }
 

@@ -1,4 +1,4 @@
-// io::SpinningLidarModel and the simulator's real-sensor render (issue 23): the beam tables, one unit's
+// io::SpinningLidarModel and the simulator's real-sensor render: the beam tables, one unit's
 // calibration, lost returns, and what projecting such a scan on a uniform image grid does to it.
 #include <gtest/gtest.h>
 

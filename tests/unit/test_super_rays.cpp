@@ -7,6 +7,7 @@
 #include <octomap/OcTree.h>
 
 #include "densemap/io/lidar_simulator.h"
+#include "densemap/sources/open_source.h"
 #include "densemap/update/super_ray_generator.h"
 #include "test_data.h"
 
@@ -82,7 +83,7 @@ TEST(SuperRays, SimulatedScanAtCoarseResolution) {
 
 TEST(SuperRays, RealScanKitti) {
   DENSEMAP_REQUIRE_DATA("kitti00");
-  auto src = io::openSource(test::dataDir() + "/kitti00");
+  auto src = sources::openSource(test::dataDir() + "/kitti00");
   const io::Scan s = src->read(3);
   checkMembersTraverseRepresentativeCells(0.4, s.origin(), s.worldPoints(), 20);
 }

@@ -17,7 +17,6 @@
 #include "densemap/msg/dds_options_cli.h"
 #include "densemap/msg/peer_topic.h"
 #include "densemap/msg/wire_types.h"
-#include "densemap/server/dds_edge/server_config.h"
 #include "densemap/server/dds_edge/wire.h"
 #include "densemap/util/log_throttle.h"
 #include "densemap/util/realtime_priority.h"
@@ -210,10 +209,10 @@ DdsEdge::DdsEdge(MapService& service, const DdsEdgeOptions& options) : service_(
   // scan intake sets the default back for itself (the pipeline's threads were created before).
   {
     DdsEdgeOptions copy = options_;  // checked against the option tables, the one place ranges live
-    std::vector<cli::OptionTable> tables;
+    std::vector<options::OptionTable> tables;
     tables.push_back(msg::ddsOptions(copy.dds));
     tables.push_back(edgeOptions(copy));
-    for (const cli::OptionTable& t : tables) {
+    for (const options::OptionTable& t : tables) {
       if (const std::string why = t.validate(); !why.empty()) throw std::invalid_argument(why);
     }
   }
@@ -501,7 +500,7 @@ void DdsEdge::logRefusedClient(const std::string& client_id, const char* what) {
 }
 
 void DdsEdge::replyBusy(const msg::QueryRequest& rq) {
-  // Answered at once, so a flood gets answers in bounded time and the backlog stays bounded (issue 18).
+  // Answered at once, so a flood gets answers in bounded time and the backlog stays bounded.
   service_.countBusyQuery();
   Answer busy;
   busy.status = Status::kBusy;
@@ -685,7 +684,7 @@ void DdsEdge::stop() {
   std::lock_guard lock(stop_mutex_);
   if (stopped_) return;
   stopped_ = true;
-  // Every scan taken from DDS ends mapped, dropped or rejected, and acknowledged (issue 18). The intake
+  // Every scan taken from DDS ends mapped, dropped or rejected, and acknowledged. The intake
   // stops first. Draining, a scan it is still pushing into a full queue waits for space (the pipeline maps
   // on) and is mapped; dropping, stopping the service first releases that push and the scan is dropped.
   const bool drain = !service_.options().drop_on_exit;

@@ -1,11 +1,11 @@
 #include "densemap/server/ros2_edge/ros2_options.h"
 
-#include "densemap/cli/common_options.h"
+#include "densemap/ros2/frame_option_table.h"
 
 namespace densemap::server::ros2_edge {
 
-cli::OptionTable ros2Options(Ros2EdgeOptions& o) {
-  cli::OptionTable t("ROS 2 edge (octomap_server's topics, services and parameters; docs/ROS2.md)");
+options::OptionTable ros2Options(Ros2EdgeOptions& o) {
+  options::OptionTable t("ROS 2 edge (octomap_server's topics, services and parameters; docs/ROS2.md)");
   t.add("ros2", o.enabled, "also serve ROS 2 nodes: PointCloud2 + TF in, octomap_msgs and a 2D map out");
   t.add("ros2-only", o.only, "serve ROS 2 nodes only (no densemap topics)");
   t.add("node-name", o.node_name,
@@ -14,7 +14,7 @@ cli::OptionTable ros2Options(Ros2EdgeOptions& o) {
         "SROS2 enclave for the ROS 2 participant (e.g. KEYSTORE/enclaves/octomap_server from `ros2 security "
         "create_enclave`); empty: --security-dir")
       .exampleOnly();
-  cli::addFrameOptions(t, o.frames);
+  ros2::addFrameOptions(t, o.frames);
   t.add("pose-type", o.pose_type, "type of --pose-topic").oneOf({"odometry", "pose_stamped"});
   t.add("tf-timeout", o.tf_timeout_s,
         "seconds a cloud waits for its transform before it is dropped (counted)")

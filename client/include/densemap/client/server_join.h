@@ -9,8 +9,8 @@
 #include <functional>
 #include <string>
 
-#include "densemap/cli/option_table.h"
 #include "densemap/msg/dds_node.h"
+#include "densemap/options/option_table.h"
 
 namespace densemap::client {
 
@@ -82,6 +82,6 @@ struct JoinOptions {
   /// has no handshake to stall, so it is never replaced).
   [[nodiscard]] std::chrono::milliseconds attempt(bool secure) const;
 };
-cli::OptionTable joinOptions(JoinOptions& options);
+options::OptionTable joinOptions(JoinOptions& options);
 
 }  // namespace densemap::client

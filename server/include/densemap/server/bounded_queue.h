@@ -10,13 +10,9 @@
 #include <mutex>
 #include <optional>
 #include <string_view>
+#include "densemap/server/stage_options.h"
 
 namespace densemap::server {
-
-enum class OverflowPolicy {
-  kWait,        ///< the producer blocks until there is room (back-pressure; nothing is lost)
-  kDropOldest,  ///< the oldest queued item is dropped (bounded latency; every drop is counted)
-};
 
 std::string_view toString(OverflowPolicy p);
 std::optional<OverflowPolicy> parseOverflowPolicy(std::string_view s);

@@ -1,7 +1,7 @@
 // The dense layer (AKIMap, or the BGK baseline) as a pipeline stage after the exact map. It may fall
 // behind: its input queue drops the oldest waiting scans (counted in the stage statistics) so it always
 // works on recent scans and never holds up the exact map. It is the dense layer's only writer: a reset or
-// a load clears it here, in order with the scans. With the map window (--window-radius, issue 22) its blocks
+// a load clears it here, in order with the scans. With the map window (--window-radius) its blocks
 // farther than the radius from every robot are dropped after each scan: the dense layer is an estimate
 // from the scans around the robots, which a robot coming back builds again; the exact map keeps every cell.
 #pragma once

@@ -9,23 +9,9 @@
 
 #include "densemap/densify/range_upsampler.h"
 #include "densemap/server/pipeline_stage.h"
+#include "densemap/server/stage_options.h"
 
 namespace densemap::server {
-
-struct DensifyOptions {
-  std::string method = "none";  ///< none, iln (the trained network) or bilinear (the baseline)
-  std::string weights;          ///< ILN weights; empty: the shipped compact model (models/iln/iln_compact.pt)
-  /// Scans from a LiDAR with this many beams are densified (0: any scan that carries its geometry)...
-  int input_rows = 16;
-  /// ...or, when not empty, exactly the scans of these robots (they must carry their LiDAR geometry).
-  std::vector<std::string> robots;
-  /// Output beams and columns (0: the input's columns). Beam spacing is the input's divided by
-  /// rows / input rows, from the same top beam, so every input beam is an output beam (16 -> 64 reproduces
-  /// the KITTI HDL-64E layout from its every 4th beam).
-  int target_rows = 64;
-  int target_columns = 0;
-  int threads = 2;  ///< libtorch and inference threads
-};
 
 /// The output layout for an input layout (see DensifyOptions::target_rows).
 io::LidarGeometry densifiedGeometry(const io::LidarGeometry& input, int rows, int columns);

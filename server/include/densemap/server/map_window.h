@@ -1,4 +1,4 @@
-// The rolling window and the memory cap (issue 22): after each scan, grid blocks whose centre is farther
+// The rolling window and the memory cap: after each scan, grid blocks whose centre is farther
 // than the radius from every robot's latest sensor position, and then the least recently updated while
 // the map is over its cap, leave the exact map's memory: kept as write-once files in the block store
 // (DATA_DIR/blocks) or dropped. Before each scan, the stored blocks its rays can reach come back, so the
@@ -24,23 +24,10 @@
 #include "densemap/server/durability/block_store.h"
 #include "densemap/server/map_window_stats.h"
 #include "densemap/server/robot_places.h"
+#include "densemap/server/stage_options.h"
 #include "densemap/util/log_throttle.h"
 
 namespace densemap::server {
-
-struct MapWindowOptions {
-  double radius_m = 0.0;    ///< 0: no window
-  double max_map_mb = 0.0;  ///< 0: no cap
-  bool store = true;        ///< false: blocks that leave memory are forgotten
-  /// A robot whose last scan is this much map time old no longer keeps blocks in memory (0: never).
-  double robot_timeout_s = 300.0;
-  /// > 0: a query that reaches stored blocks brings them back, and they stay in memory this many seconds of
-  /// map time (the scans' receive time) before they may leave again; 0: the query says "not in memory".
-  double query_load_s = 0.0;
-  /// False without a journal: no snapshot will name a file, so a block's file goes as soon as it comes back.
-  bool snapshots = true;
-  bool enabled() const { return radius_m > 0.0 || max_map_mb > 0.0; }
-};
 
 class MapWindow {
  public:

@@ -1,4 +1,4 @@
-// The map window's counters (issue 22), apart from the window so the statistics can carry them.
+// The map window's counters, apart from the window so the statistics can carry them.
 #pragma once
 
 #include <cstdint>

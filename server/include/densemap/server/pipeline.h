@@ -18,20 +18,9 @@
 #include "densemap/server/latency_window.h"
 #include "densemap/server/pipeline_stage.h"
 #include "densemap/server/scan_job.h"
+#include "densemap/server/stage_options.h"
 
 namespace densemap::server {
-
-struct PipelineOptions {
-  /// Scans each robot may have waiting before the overflow policy applies.
-  std::size_t robot_queue_capacity = 8;
-  /// What happens when a robot's queue is full: wait (the robot is slowed down through DDS's reliable
-  /// flow control, nothing is lost) or drop the oldest waiting scan (counted).
-  OverflowPolicy overflow = OverflowPolicy::kWait;
-  /// Scans waiting between two stages.
-  std::size_t stage_queue_capacity = 2;
-  /// At most this many robots are served; scans from further robot ids are rejected.
-  std::size_t max_robots = 256;
-};
 
 struct RobotCounters {
   std::uint64_t received = 0;

@@ -45,7 +45,7 @@ using Query = std::variant<PointsQuery, BoxQuery, RayQuery, StatsQuery>;
 /// trip's tail on a loaded machine); the rest go to the edge's query threads.
 bool answerInline(const Query& q);
 
-/// kNotInMemory: the cell's block is stored out of memory (map window, issue 22); its value is not known
+/// kNotInMemory: the cell's block is stored out of memory (map window); its value is not known
 /// here until a scan brings it back.
 enum class CellState : std::uint8_t { kUnknown, kFree, kOccupied, kNotInMemory };
 

@@ -9,18 +9,9 @@
 #include "densemap/server/latency_window.h"
 #include "densemap/server/map_stores.h"
 #include "densemap/server/query.h"
+#include "densemap/server/stage_options.h"
 
 namespace densemap::server {
-
-struct QueryLimits {
-  /// Most points in one points query.
-  std::size_t max_points = 1'000'000;
-  /// Cells a box query returns when its limit is 0, and the most it may ask for.
-  std::uint32_t default_box_limit = 100'000;
-  std::uint32_t max_box_limit = 2'000'000;
-  /// Longest ray a ray query may cast, in metres.
-  double max_ray_range = 1000.0;
-};
 
 class QueryAnswerer {
  public:

@@ -1,4 +1,4 @@
-// Where each robot last was, for the map window (issue 22): blocks far from every robot leave memory. A
+// Where each robot last was, for the map window: blocks far from every robot leave memory. A
 // robot silent past the timeout (map time: the scans' receive time) is forgotten, so a robot that stopped
 // sending does not hold its neighbourhood in memory forever. Used by the exact map's window and by the
 // dense layer's, each on its own writer thread.

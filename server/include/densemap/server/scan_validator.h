@@ -7,15 +7,9 @@
 
 #include "densemap/geometry/voxel_key.h"
 #include "densemap/server/scan_job.h"
+#include "densemap/server/stage_options.h"
 
 namespace densemap::server {
-
-struct ScanLimits {
-  /// Scans with more points are rejected (a 128x2048 LiDAR gives 262,144).
-  std::size_t max_points = 1'000'000;
-  /// Largest accepted | |q| - 1 | of the pose quaternion (senders should normalise; rounding is tolerated).
-  double quaternion_tolerance = 1e-3;
-};
 
 /// Empty when the scan may be mapped (after removing non-finite points, counted in job.points_rejected, and
 /// setting job.scan.pose from the checked pose); else why it is rejected. The one place a scan is checked

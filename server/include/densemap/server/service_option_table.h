@@ -5,14 +5,14 @@
 
 #include <vector>
 
-#include "densemap/cli/option_table.h"
+#include "densemap/options/option_table.h"
 #include "densemap/server/service_options.h"
 
 namespace densemap::server {
 
 /// The service's own tables (server, densify, dense layer, pipeline, storage, shutdown). The map and
 /// update tables are the shared ones (cli::mapOptions, cli::updateOptions) on options.map / .update.
-std::vector<cli::OptionTable> serviceOptionTables(ServiceOptions& options);
+std::vector<options::OptionTable> serviceOptionTables(ServiceOptions& options);
 
 /// Checks every option (the service's tables and the map and update ones); throws std::invalid_argument
 /// naming the option that is out of range.

@@ -7,12 +7,8 @@
 
 #include "densemap/dense/dense_layer_factory.h"
 #include "densemap/map/map_factory.h"
-#include "densemap/server/densify_stage.h"
 #include "densemap/server/durability/durability_options.h"
-#include "densemap/server/map_window.h"
-#include "densemap/server/pipeline.h"
-#include "densemap/server/query_answerer.h"
-#include "densemap/server/scan_validator.h"
+#include "densemap/server/stage_options.h"
 #include "densemap/update/update_engine.h"
 
 namespace densemap::server {

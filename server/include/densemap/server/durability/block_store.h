@@ -1,4 +1,4 @@
-// Map blocks out of memory (issue 22's rolling window), one file each:
+// Map blocks out of memory (the rolling window), one file each:
 //
 //   DATA_DIR/blocks/<block id, 16 hex digits>-<version, 20 digits>.dmb      (PaletteBlock::encode bytes)
 //

@@ -1,7 +1,7 @@
 // The server's side of the per-robot scan topics (densemap/scans/<robot_id>, msg/peer_topic.h): a reader
 // per robot, made when the robot's scan writer is discovered, removed when the robot is gone. The topic
 // names the robot: DDS-Security permissions let only that robot's identity write it, so a scan's robot id
-// is checked against its topic and a robot cannot send scans as another (issue 21). Bounded: a flood of
+// is checked against its topic and a robot cannot send scans as another. Bounded: a flood of
 // writers on new topics makes at most max_robots readers.
 //
 // Used by one thread (the scan intake), except writerDiscovered(), which DDS's discovery thread calls.

@@ -1,11 +1,11 @@
 // The ROS 2 edge's options, declared once (flags, config keys, --help, config/server.toml).
 #pragma once
 
-#include "densemap/cli/option_table.h"
+#include "densemap/options/option_table.h"
 #include "densemap/server/ros2_edge/ros2_edge.h"
 
 namespace densemap::server::ros2_edge {
 
-cli::OptionTable ros2Options(Ros2EdgeOptions& options);
+options::OptionTable ros2Options(Ros2EdgeOptions& options);
 
 }  // namespace densemap::server::ros2_edge
