@@ -85,7 +85,9 @@ void OccupancyStage::applyChange(MapChange& change) {
   if (r.status != Status::kOk) return;  // refused before (the journal could not take it): not applied
   reportingErrors(r, [&] {
     if (const auto* clear = std::get_if<ClearBoxCommand>(&change.command)) {
-      const auto [lo, hi] = boxKeys(store_.writerView().converter(), clear->min, clear->max);
+      // Named keys, not a structured binding: clang 14 cannot capture one in the lambdas below.
+      const auto box = boxKeys(store_.writerView().converter(), clear->min, clear->max);
+      const geometry::VoxelKey lo = box.first, hi = box.second;
       if (auto* grid = window_ ? dynamic_cast<map::GridMap*>(&store_.writerView()) : nullptr)
         window_->bringBack(*grid, lo, hi, 0.0f, [&](const std::function<void()>& commit) {
           store_.write([&](map::OccupancyMap&) { commit(); });

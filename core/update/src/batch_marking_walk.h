@@ -238,7 +238,9 @@ class BatchMarkingWalk {
   template <int kAx>
   [[gnu::always_inline]] static bool chooses(const double* t) {
     constexpr int kO1 = (kAx + 1) % 3, kO2 = (kAx + 2) % 3;
-    return before<kAx, kO1>(t[kAx], t[kO1]) & before<kAx, kO2>(t[kAx], t[kO2]);
+    // Both comparisons, no branch between them (a bitwise and of their values, not &&).
+    return (static_cast<unsigned>(before<kAx, kO1>(t[kAx], t[kO1])) &
+            static_cast<unsigned>(before<kAx, kO2>(t[kAx], t[kO2]))) != 0u;
   }
 
   /// One step of OctoMap's loop: step along the axis of least t; stop on the end cell; stop when
